@@ -1,0 +1,271 @@
+"""The headless GL context: making one, reporting what it can do, and owning its GL objects.
+
+:func:`open_context` tries moderngl's EGL back-end first (no display needed: Mesa llvmpipe on a
+machine without a GPU, the vendor's driver where there is one), then the other standalone back-ends.
+The returned :class:`Context` is the one owner of every texture, framebuffer, buffer and program the
+package makes, counts them, and releases them all on ``release()`` or at the end of a ``with``.
+"""
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import CapabilityError, ContextError
+from .shaders import compile_program
+
+INSTALL_HINT = (
+    "install a GL driver with EGL: on Debian/Ubuntu 'apt-get install libegl1 libgl1-mesa-dri "
+    "libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also works)"
+)
+# Formats the state and the accumulation target may use: name -> (moderngl dtype).
+FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
+
+
+def _backends():
+    """Back-ends to try, in order; ES2PARTICLES_BACKEND picks one (egl, or '' for the default)."""
+    forced = os.environ.get("ES2PARTICLES_BACKEND")
+    if forced is not None:
+        return [forced or None]
+    return ["egl", None]
+
+
+def open_context():
+    """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install."""
+    import moderngl
+
+    failures = []
+    for backend in _backends():
+        kwargs = {"standalone": True}
+        if backend:
+            kwargs["backend"] = backend
+        try:
+            mgl = moderngl.create_context(**kwargs)
+        except Exception as error:  # the binding raises bare Exceptions with the loader's words
+            failures.append(f"{backend or 'default'}: {str(error).strip() or type(error).__name__}")
+            continue
+        return Context(mgl, backend or "default")
+    raise ContextError("no headless OpenGL context could be made; " + INSTALL_HINT
+                       + "\n  tried: " + "\n  tried: ".join(failures))
+
+
+@dataclass
+class Capabilities:
+    """What the context offers, checked once at start-up."""
+
+    backend: str
+    vendor: str
+    renderer: str
+    version: str
+    max_texture_size: int
+    max_vertex_texture_units: int
+    point_size_range: tuple
+    renderable: dict = field(default_factory=dict)  # format -> can be a render target
+    blendable: dict = field(default_factory=dict)  # format -> additive blending works into it
+    store_rule: str = "unknown"  # how the driver turns a float into a byte: round/truncate/...
+
+    def lines(self):
+        """The report as (label, value) rows."""
+        rows = [("backend", self.backend), ("vendor", self.vendor), ("renderer", self.renderer),
+                ("GL version", self.version), ("max texture size", self.max_texture_size),
+                ("max particles (max texture size squared)", self.max_texture_size ** 2),
+                ("vertex texture image units", self.max_vertex_texture_units),
+                ("point size range", "%g..%g" % tuple(self.point_size_range))]
+        for name in FORMAT_DTYPES:
+            rows.append((f"{name} render target / additive blend",
+                         f"{_yes(self.renderable.get(name))} / {_yes(self.blendable.get(name))}"))
+        rows.append(("8-bit store of a float channel", self.store_rule))
+        return rows
+
+    def __str__(self):
+        width = max(len(label) for label, _ in self.lines())
+        return "\n".join(f"{label:<{width}}  {value}" for label, value in self.lines())
+
+
+def _yes(flag):
+    return "yes" if flag else "no"
+
+
+class Context:
+    """A headless GL context and the one owner of the GL objects made through it."""
+
+    def __init__(self, mgl, backend="egl"):
+        self.mgl = mgl
+        self.backend = backend
+        self._owned = []
+        self._programs = {}
+        self._caps = None
+        self._fullscreen = None
+
+    # -- ownership ---------------------------------------------------------------------------
+
+    def own(self, obj):
+        """Take ownership of a moderngl object; it is released with the context."""
+        self._owned.append(obj)
+        return obj
+
+    def free(self, *objects):
+        """Release objects made through this context before the context itself goes."""
+        import moderngl
+
+        if any(isinstance(obj, moderngl.Framebuffer) for obj in objects):
+            # moderngl re-binds the last used framebuffer when it makes the next one; if that one
+            # was deleted, GL answers INVALID_OPERATION. Park on the default framebuffer first.
+            self.mgl.detect_framebuffer(0).use()
+        for obj in objects:
+            if obj is None:
+                continue
+            for i, owned in enumerate(self._owned):
+                if owned is obj:
+                    del self._owned[i]
+                    obj.release()
+                    break
+
+    def live_objects(self):
+        """Count of GL objects alive, by type name (a test can check a run leaks nothing)."""
+        counts = {}
+        for obj in self._owned:
+            counts[type(obj).__name__] = counts.get(type(obj).__name__, 0) + 1
+        return counts
+
+    def release(self):
+        """Release every owned object and the context; safe to call twice."""
+        while self._owned:
+            self._owned.pop().release()
+        self._programs.clear()
+        self._fullscreen = None
+        if self.mgl is not None:
+            self.mgl.release()
+            self.mgl = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+    # -- factories ---------------------------------------------------------------------------
+
+    def texture(self, size, fmt="rgba8", data=None, filter_nearest=True):
+        """A 2D texture of ``fmt`` (rgba8, rgba16f, rgba32f), NEAREST-sampled and clamped.
+
+        Packed state must be sampled NEAREST: linear filtering would mix high and low bytes.
+        """
+        tex = self.own(self.mgl.texture(tuple(size), 4, data=data, dtype=FORMAT_DTYPES[fmt]))
+        import moderngl
+
+        mode = moderngl.NEAREST if filter_nearest else moderngl.LINEAR
+        tex.filter = (mode, mode)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
+    def framebuffer(self, texture):
+        return self.own(self.mgl.framebuffer(color_attachments=[texture]))
+
+    def buffer(self, data):
+        return self.own(self.mgl.buffer(data))
+
+    def program(self, vertex, fragment, defines=None):
+        """Compiled program for the shader files and defines; compiled once, then cached."""
+        key = (str(vertex), str(fragment), tuple(sorted((defines or {}).items())))
+        if key not in self._programs:
+            self._programs[key] = self.own(compile_program(self.mgl, vertex, fragment, defines))
+        return self._programs[key]
+
+    def vertex_array(self, program, content):
+        return self.own(self.mgl.vertex_array(program, content))
+
+    def fullscreen(self, program):
+        """A vertex array drawing the full-screen triangle of ``lib/fullscreen.vert``."""
+        if self._fullscreen is None:
+            self._fullscreen = self.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4"))
+        return self.vertex_array(program, [(self._fullscreen, "2f", "a_position")])
+
+    # -- capabilities ------------------------------------------------------------------------
+
+    @property
+    def caps(self):
+        """The :class:`Capabilities` report, probed once."""
+        if self._caps is None:
+            self._caps = _probe(self)
+        return self._caps
+
+    def require_format(self, fmt, blend=False):
+        """Raise :class:`CapabilityError` unless ``fmt`` is renderable (and blendable)."""
+        if fmt not in FORMAT_DTYPES:
+            raise CapabilityError(f"format must be one of {sorted(FORMAT_DTYPES)}, got {fmt!r}")
+        if not self.caps.renderable.get(fmt) or (blend and not self.caps.blendable.get(fmt)):
+            need = "rendered to with additive blending" if blend else "rendered to"
+            raise CapabilityError(f"format {fmt!r} cannot be {need} on {self.caps.renderer}")
+
+
+def _probe(ctx):
+    mgl = ctx.mgl
+    info = mgl.info
+    caps = Capabilities(
+        backend=ctx.backend,
+        vendor=str(info.get("GL_VENDOR", "?")),
+        renderer=str(info.get("GL_RENDERER", "?")),
+        version=str(info.get("GL_VERSION", "?")),
+        max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 0)),
+        max_vertex_texture_units=int(info.get("GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS", 0)),
+        point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
+    )
+    for fmt in FORMAT_DTYPES:
+        caps.renderable[fmt], caps.blendable[fmt] = _probe_format(ctx, fmt)
+    caps.store_rule = _probe_store_rule(ctx)
+    return caps
+
+
+def _draw_constant(ctx, fmt, colour, blend):
+    """Render a constant colour into a 4x4 target of ``fmt`` (twice, blended, if ``blend``)."""
+    import moderngl
+
+    tex = ctx.texture((4, 4), fmt)
+    fbo = ctx.framebuffer(tex)
+    prog = ctx.program("lib/fullscreen.vert", "lib/constant.frag")
+    vao = ctx.fullscreen(prog)
+    try:
+        fbo.use()
+        fbo.clear(0, 0, 0, 0)
+        prog["u_colour"].value = tuple(colour)
+        if blend:
+            ctx.mgl.enable(moderngl.BLEND)
+            ctx.mgl.blend_func = moderngl.ONE, moderngl.ONE
+        vao.render(moderngl.TRIANGLES)
+        if blend:
+            vao.render(moderngl.TRIANGLES)
+            ctx.mgl.disable(moderngl.BLEND)
+        dtype = {"rgba8": "u1", "rgba16f": "f2", "rgba32f": "f4"}[fmt]
+        return np.frombuffer(tex.read(), dtype=dtype).reshape(-1, 4)[0].astype(np.float64)
+    finally:
+        ctx.free(vao, fbo, tex)
+
+
+def _probe_format(ctx, fmt):
+    try:
+        once = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0), blend=False)
+        twice = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0), blend=True)
+    except Exception:
+        return False, False
+    if ctx.mgl.error != "GL_NO_ERROR":
+        return False, False
+    if fmt == "rgba8":
+        return bool(once[0] == 64), bool(twice[0] == 128)
+    return bool(abs(once[2] - 2.0) < 1e-3), bool(abs(twice[2] - 4.0) < 1e-3)
+
+
+def _probe_store_rule(ctx):
+    """Which model of float -> byte conversion the driver's RGBA8 stores follow.
+
+    Channel values are chosen between the models' answers: (10.6)/255 gives 11 under rounding and
+    10 under truncation or floor(256c); (200.7)/255 gives 200 under truncation and 201 otherwise.
+    """
+    from .packing import store_unorm8
+
+    colour = np.array([10.6, 200.7, 100.3, 254.9], dtype=np.float32) / np.float32(255)
+    got = _draw_constant(ctx, "rgba8", colour, blend=False)
+    for rule in ("round", "truncate", "floor256"):
+        if np.array_equal(store_unorm8(colour, rule), got):
+            return "round-to-nearest" if rule == "round" else rule
+    return "unknown (bytes %s)" % got.astype(int).tolist()

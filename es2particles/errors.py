@@ -1,0 +1,54 @@
+"""The exception family of es2particles.
+
+Every error the package raises on purpose derives from :class:`Es2ParticlesError`, so a caller can
+catch one type. Messages name the parameter, file or capability at fault and, where there is one,
+the allowed range.
+"""
+
+
+class Es2ParticlesError(Exception):
+    """Base class of every error raised by es2particles."""
+
+
+class ParameterError(Es2ParticlesError, ValueError):
+    """A parameter is out of its allowed range or of the wrong kind."""
+
+
+class ContextError(Es2ParticlesError):
+    """No headless GL context could be made (missing EGL or driver)."""
+
+
+class CapabilityError(Es2ParticlesError):
+    """The context lacks something the request needs (a format, vertex texture fetch, a size)."""
+
+
+class ShaderError(Es2ParticlesError):
+    """A shader failed to load, compile or link; the message names the file and the line."""
+
+
+class GraphError(Es2ParticlesError):
+    """A pass graph is inconsistent: a cycle, a read nobody provides, two writers of one quantity."""
+
+
+def check_range(name, value, lo=None, hi=None, integer=False):
+    """Return ``value`` if it lies in ``[lo, hi]`` (and is finite), else raise :class:`ParameterError`.
+
+    Used at every public entry point so that bad input fails with the parameter's name and range
+    instead of deep inside GL.
+    """
+    import math
+
+    kind = "an integer" if integer else "a number"
+    try:
+        number = int(value) if integer else float(value)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be {kind}, got {value!r}") from None
+    if integer and number != value:
+        raise ParameterError(f"{name} must be {kind}, got {value!r}")
+    if not math.isfinite(number):
+        raise ParameterError(f"{name} must be finite, got {value!r}")
+    if (lo is not None and number < lo) or (hi is not None and number > hi):
+        lo_text = "-inf" if lo is None else repr(lo)
+        hi_text = "inf" if hi is None else repr(hi)
+        raise ParameterError(f"{name} must be in [{lo_text}, {hi_text}], got {value!r}")
+    return number

@@ -1,0 +1,131 @@
+"""numpy twins of the GLSL codecs in ``shaders/glsl100/lib/pack.glsl`` and ``lib/state.glsl``.
+
+Each function here has the name and the float32 arithmetic of its GLSL peer, in the same order, so
+that the two can be read side by side and the bytes a GPU writes can be predicted exactly (under the
+round-to-nearest store that GL prefers). They are also what uploads and downloads state.
+
+The fixed-point grid: a value x in [0, 1] is stored as bytes (H, L) with H = floor(255 x) and
+L = round(255 fract(255 x)), computed as the nearest code k = round(65025 x), H = k div 255,
+L = k mod 255 (so L never rounds up to 255); it reads back as (255 H + L) / 65025. Results of edge values:
+x >= 1 and +Inf give 1.0 exactly; x <= 0, -Inf and NaN give 0.0.
+"""
+
+import numpy as np
+
+F32 = np.float32
+CODES_PER_UNIT = 65025  # 255 * 255: the grid step of a packed value is 1 / 65025
+STORE_RULES = ("round", "truncate", "floor256")
+
+
+# --- twins of lib/pack.glsl -------------------------------------------------------------------
+
+def clamp_unit(x):
+    """Clamp to [0, 1]; NaN gives 0 (a failed ``x >= 0`` comparison, as in GLSL)."""
+    x = np.asarray(x, dtype=F32)
+    with np.errstate(invalid="ignore"):
+        return np.where(x >= 0, np.minimum(x, F32(1)), F32(0)).astype(F32)
+
+
+def pack16_channels(x):
+    """The two channel values (high, low) that ``pack16`` writes, as float32, before the store."""
+    code = np.floor(clamp_unit(x) * F32(CODES_PER_UNIT) + F32(0.5))
+    high = np.floor((code + F32(0.5)) * F32(1 / 255))
+    return high * F32(1 / 255), (code - high * F32(255)) * F32(1 / 255)
+
+
+def pack16(x, store="round"):
+    """Bytes (..., 2) = (high, low) that a GPU stores for ``x`` under the given store rule."""
+    high, low = pack16_channels(x)
+    return np.stack([store_unorm8(high, store), store_unorm8(low, store)], axis=-1)
+
+
+def unpack16(bytes2):
+    """Decode bytes (..., 2) = (high, low) to float32 in [0, 1], as ``unpack16`` in GLSL does.
+
+    The GLSL side snaps each sampled channel to the 1/255 grid first, which recovers the bytes.
+    """
+    b = np.asarray(bytes2).astype(F32)
+    return (b[..., 0] * F32(255) + b[..., 1]) * F32(1.0 / CODES_PER_UNIT)
+
+
+def pack2x16(x, store="round"):
+    """Bytes (..., 4) of one RGBA8 texel holding two values, x of shape (..., 2)."""
+    x = np.asarray(x, dtype=F32)
+    return np.concatenate([pack16(x[..., 0], store), pack16(x[..., 1], store)], axis=-1)
+
+
+def unpack2x16(texel):
+    """Two float32 values (..., 2) from RGBA8 texel bytes (..., 4)."""
+    texel = np.asarray(texel)
+    return np.stack([unpack16(texel[..., 0:2]), unpack16(texel[..., 2:4])], axis=-1)
+
+
+# --- twins of lib/state.glsl ------------------------------------------------------------------
+
+def range_vec4(lo, hi):
+    """The vec4(lo.x, lo.y, span.x, span.y) uniform of a quantity, as float32."""
+    lo = np.broadcast_to(np.asarray(lo, dtype=np.float64), (2,))
+    hi = np.broadcast_to(np.asarray(hi, dtype=np.float64), (2,))
+    return np.concatenate([lo, hi - lo]).astype(F32)
+
+
+def state_unit(value, rng):
+    """World values (..., 2) to [0, 1] (clamped, NaN to 0) for the range vec4 ``rng``."""
+    value = np.asarray(value, dtype=F32)
+    with np.errstate(invalid="ignore", over="ignore"):
+        return clamp_unit((value - rng[:2]) / rng[2:])
+
+
+def state_encode(value, rng, fmt="rgba8"):
+    """Texel contents for world values (..., 2): RGBA8 bytes, or float RGBA for float formats."""
+    unit = state_unit(value, rng)
+    if fmt == "rgba8":
+        return pack2x16(unit)
+    world = rng[:2] + unit * rng[2:]
+    out = np.zeros(world.shape[:-1] + (4,), dtype=F32)
+    out[..., :2] = world
+    out[..., 3] = 1
+    return out
+
+
+def state_decode(texel, rng, fmt="rgba8"):
+    """World values (..., 2) as float32 from texel contents (bytes for rgba8, floats otherwise)."""
+    if fmt == "rgba8":
+        return rng[:2] + unpack2x16(texel) * rng[2:]
+    return np.asarray(texel, dtype=F32)[..., :2]
+
+
+# --- what the GL does between the shader and the texture --------------------------------------
+
+def store_unorm8(c, rule="round"):
+    """Model of a driver converting a float channel in [0, 1] to an 8-bit byte.
+
+    ``round`` is what the GL ES specs prefer; ``truncate`` (floor(255 c)) and ``floor256``
+    (floor(256 c), clamped) are what some hardware does. The product is taken exactly (float64).
+    """
+    s = np.asarray(c, dtype=np.float64)
+    if rule == "round":
+        b = np.floor(s * 255 + 0.5)
+    elif rule == "truncate":
+        b = np.floor(s * 255)
+    elif rule == "floor256":
+        b = np.floor(s * 256)
+    else:
+        raise ValueError(f"store rule must be one of {STORE_RULES}, got {rule!r}")
+    return np.clip(b, 0, 255).astype(np.uint8)
+
+
+# --- the article's original formula, kept to show in tests what it gets wrong -----------------
+
+def article_pack16(x, store="round"):
+    """Bytes (high, low) of the article's ``pack``: high = fract(x) - fract(255 x)/255."""
+    x = np.asarray(x, dtype=F32)
+    low = x * F32(255) - np.floor(x * F32(255))
+    high = (x - np.floor(x)) - low * F32(1 / 255)
+    return np.stack([store_unorm8(high, store), store_unorm8(low, store)], axis=-1)
+
+
+def article_unpack16(bytes2):
+    """The article's ``unpack``: high + low/255 from the stored channels (no snapping)."""
+    b = np.asarray(bytes2).astype(np.float64) / 255
+    return b[..., 0] + b[..., 1] / 255

@@ -1,0 +1,169 @@
+"""Executing a pass graph's plan on the GPU: textures, programs, one step after another.
+
+Everything GL is made once here, in the constructor: state textures and framebuffers, programs,
+vertex arrays, and the uniform handles that are set per step. ``step()`` then only binds textures,
+sets the step number and draws, pass by pass, and swaps the ping-pong buffers at the end.
+"""
+
+import moderngl
+import numpy as np
+
+from .errors import ParameterError
+from .state import Layout, StateBuffer
+
+FORMAT_DEFINES = {"rgba8": {"STATE_RGBA8": None}, "rgba16f": {"STATE_FLOAT": None},
+                  "rgba32f": {"STATE_FLOAT": None}}
+
+
+class _BoundPass:
+    """A pass with its program, vertex array and uniform handles, ready to draw."""
+
+    def __init__(self, ctx, spec, buffers, layout, defines):
+        self.spec = spec
+        self.program = ctx.program("lib/fullscreen.vert", spec.frag, {**defines, **spec.defines})
+        self.vao = ctx.fullscreen(self.program)
+        self.target = buffers[spec.writes]
+        # Samplers: (texture unit, buffer, this step's value?) in a fixed order.
+        self.inputs = []
+        for unit, (name, new) in enumerate([(q, False) for q in spec.reads]
+                                           + [(q, True) for q in spec.reads_new]):
+            self._set(f"u_{name}", unit)
+            self._set(f"u_{name}_range", tuple(buffers[name].quantity.range_vec4))
+            self.inputs.append((unit, buffers[name], new))
+        self._set("u_out_range", tuple(self.target.quantity.range_vec4))
+        self._set("u_state_size", (float(layout.width), float(layout.height)))
+        self._set("u_count", float(layout.count))
+        self.step_uniform = self._handle("u_step")
+        for name, value in spec.uniforms.items():
+            self.set_uniform(name, value)
+
+    def _handle(self, name):
+        return self.program[name] if name in self.program else None
+
+    def _set(self, name, value):
+        handle = self._handle(name)
+        if handle is not None:
+            handle.value = value
+
+    def set_uniform(self, name, value):
+        handle = self._handle(name)
+        if handle is None:
+            return False
+        try:
+            handle.value = value
+        except Exception as error:
+            raise ParameterError(f"uniform {name} of pass {self.spec.name!r}: cannot take "
+                                 f"{value!r} ({error})") from None
+        return True
+
+    def draw(self, step):
+        for unit, buffer, new in self.inputs:
+            (buffer.written if new else buffer.front).use(unit)
+        if self.step_uniform is not None:
+            self.step_uniform.value = float(step)
+        self.target.target.use()
+        self.vao.render(moderngl.TRIANGLES)
+
+
+class Simulation:
+    """A plan made real: state textures for ``count`` particles and the passes that update them.
+
+    Parameters
+    ----------
+    ctx : Context
+        The owner of every GL object made here.
+    graph : PassGraph
+        The passes and quantities.
+    count : int
+        Number of particles, 1 .. max_texture_size**2.
+    outputs : list of str, optional
+        Quantities wanted; passes and textures they do not need are left out (see ``plan``).
+    fmt : str
+        Storage format: ``rgba8`` (16-bit packed, default), ``rgba16f`` or ``rgba32f``.
+    defines : mapping, optional
+        ``#define`` lines for every pass.
+    """
+
+    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", defines=None):
+        if fmt not in FORMAT_DEFINES:
+            raise ParameterError(f"format must be one of {sorted(FORMAT_DEFINES)}, got {fmt!r}")
+        self.ctx, self.fmt = ctx, fmt
+        self.plan = graph.plan(outputs)
+        self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
+        ctx.require_format(fmt)
+        self.steps_done = 0
+        self.buffers = {}
+        self.passes = []
+        try:
+            for name, n in self.plan.buffers.items():
+                self.buffers[name] = StateBuffer(ctx, self.plan.quantities[name], self.layout,
+                                                 fmt, n)
+            all_defines = {**FORMAT_DEFINES[fmt], **(defines or {})}
+            self.passes = [_BoundPass(ctx, p, self.buffers, self.layout, all_defines)
+                           for p in self.plan.passes]
+        except Exception:
+            self.release()
+            raise
+        self._swapped = [b for name, b in self.buffers.items() if len(b.textures) == 2]
+
+    @property
+    def count(self):
+        return self.layout.count
+
+    def _buffer(self, name):
+        if name not in self.buffers:
+            raise ParameterError(f"quantity {name!r} is not in this simulation's plan "
+                                 f"(has: {', '.join(self.buffers)})")
+        return self.buffers[name]
+
+    def upload(self, name, values):
+        """Set quantity ``name`` to world values of shape (count, 2)."""
+        self._buffer(name).upload(values)
+
+    def download(self, name):
+        """World values (count, 2), float64, of quantity ``name`` after the last step."""
+        return self._buffer(name).download()
+
+    def texture(self, name):
+        """The texture holding the latest value of ``name`` (for a renderer)."""
+        return self._buffer(name).front
+
+    def set_uniform(self, name, value):
+        """Set uniform ``name`` on every pass whose shader declares it."""
+        if not any([p.set_uniform(name, value) for p in self.passes]):
+            raise ParameterError(f"no pass of this plan has a uniform named {name!r}")
+
+    def step(self):
+        """Run every planned pass once, then make this step's values the front ones."""
+        self.ctx.mgl.disable(moderngl.BLEND)
+        for bound in self.passes:
+            bound.draw(self.steps_done)
+        for buffer in self._swapped:
+            buffer.swap()
+        self.steps_done += 1
+
+    def run(self, steps):
+        """Run ``steps`` steps."""
+        steps = int(steps)
+        if steps < 0:
+            raise ParameterError(f"steps must be >= 0, got {steps}")
+        for _ in range(steps):
+            self.step()
+
+    def finish(self):
+        """Wait for the GPU (for timings)."""
+        self.ctx.mgl.finish()
+
+    def release(self):
+        """Release the state textures (programs stay cached in the context); safe twice."""
+        for bound in self.passes:
+            self.ctx.free(bound.vao)
+        for buffer in self.buffers.values():
+            buffer.release()
+        self.passes, self.buffers, self._swapped = [], {}, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

@@ -1,0 +1,53 @@
+// 16-bit fixed point in two 8-bit channels (the ES 2.0 way to keep particle state in RGBA8).
+// A value x in [0,1] becomes high = floor(255x)/255 and low = fract(255x) (rounded to a byte);
+// it reads back as high + low/255, on the grid k/65025, k = 0..65025. Exactly: the nearest code
+// k = round(65025x) is stored as high byte floor(k/255), low byte k mod 255.
+// numpy twins: es2particles/packing.py.
+//
+// Differences from the article's formula, on purpose:
+// - The high byte is floor(255x)/255, never fract(x) - fract(255x)/255: that difference can land
+//   just below H/255, and a driver that truncates on store then loses a whole high step (1/255).
+//   H/255 is stored as H under round-to-nearest, truncation and floor(c*256) alike; so is the low
+//   byte, because the shader rounds it (below) instead of the store.
+// - x is clamped to [0,1] first, so 1.0 stays 1.0 (code 255,0) instead of fract() wrapping it to 0.
+// - NaN maps to 0 (the comparison below is false for NaN), +Inf to 1, -Inf to 0.
+// - Unpacking snaps each channel to the 1/255 grid, so the decode is exact even when the sampler
+//   returns a channel with a little error.
+
+float clamp_unit(float x)
+{
+    // Not clamp(): clamp(NaN, 0, 1) is undefined in GLSL; a failed comparison is not.
+    return (x >= 0.0) ? min(x, 1.0) : 0.0;
+}
+
+vec2 clamp_unit(vec2 x)
+{
+    return vec2(clamp_unit(x.x), clamp_unit(x.y));
+}
+
+vec2 pack16(float x)
+{
+    // Round to the nearest code here rather than leave the low byte's rounding to the store, which
+    // GL ES only prefers to be round-to-nearest: both channels are then exact multiples of 1/255,
+    // stored exactly under rounding, truncation and floor(c*256) alike, and an unpacked value
+    // re-packs to the same bytes (floor(255x) of a decoded H/255 can land on H-1 in float32).
+    float code = floor(clamp_unit(x) * 65025.0 + 0.5);
+    float high = floor((code + 0.5) * (1.0 / 255.0));  // +0.5 keeps clear of H-1 at multiples
+    return vec2(high, code - high * 255.0) * (1.0 / 255.0);
+}
+
+float unpack16(vec2 channels)
+{
+    vec2 bytes = floor(channels * 255.0 + 0.5);
+    return (bytes.x * 255.0 + bytes.y) * (1.0 / 65025.0);
+}
+
+vec4 pack2x16(vec2 x)
+{
+    return vec4(pack16(x.x), pack16(x.y));
+}
+
+vec2 unpack2x16(vec4 texel)
+{
+    return vec2(unpack16(texel.xy), unpack16(texel.zw));
+}

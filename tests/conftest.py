@@ -1,0 +1,66 @@
+"""Shared fixtures: one real headless GL context per session, and a GL-error check per test."""
+
+import os
+import shutil
+from pathlib import Path
+
+import moderngl
+import numpy as np
+import pytest
+
+from es2particles import open_context
+
+TEST_SHADERS = Path(__file__).parent / "shaders"
+OUT = Path(__file__).resolve().parent.parent / "out" / "tests"
+
+
+@pytest.fixture(scope="session")
+def ctx():
+    context = open_context()
+    yield context
+    context.release()
+
+
+@pytest.fixture
+def gl(ctx):
+    """The context, with no GL error allowed before or after the test."""
+    assert ctx.mgl.error == "GL_NO_ERROR"
+    yield ctx
+    assert ctx.mgl.error == "GL_NO_ERROR"
+
+
+def shader(name):
+    """Path of a test-only shader."""
+    return str(TEST_SHADERS / name)
+
+
+def run_fullscreen(ctx, frag, source, out_fmt="rgba8", uniforms=None):
+    """Draw test shader ``frag`` over a target the size of texture ``source`` (bound to
+    u_source) and return the target's texels as an array (h*w, 4)."""
+    target = ctx.texture(source.size, out_fmt)
+    fbo = ctx.framebuffer(target)
+    prog = ctx.program("lib/fullscreen.vert", shader(frag))
+    vao = ctx.fullscreen(prog)
+    try:
+        source.use(0)
+        if "u_source" in prog:
+            prog["u_source"].value = 0
+        for name, value in (uniforms or {}).items():
+            prog[name].value = value
+        fbo.use()
+        vao.render(moderngl.TRIANGLES)
+        dtype = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}[out_fmt]
+        return np.frombuffer(target.read(), dtype=dtype).reshape(-1, 4).copy()
+    finally:
+        ctx.free(vao, fbo, target)
+
+
+def glslang():
+    """Path of glslangValidator; in CI its absence is a failure, elsewhere a skip."""
+    tool = shutil.which("glslangValidator")
+    if tool is None:
+        if os.environ.get("CI"):
+            pytest.fail("glslangValidator is not installed (Debian package glslang-tools); CI must "
+                        "install it")
+        pytest.skip("glslangValidator not installed (apt-get install glslang-tools)")
+    return tool

@@ -1,0 +1,55 @@
+"""The headless context: its capability report, the store-rule probe, and a clear error without GL."""
+
+import moderngl
+import pytest
+
+import es2particles.context as context_module
+from es2particles import ContextError, open_context
+
+
+def test_capabilities_are_reported(gl):
+    caps = gl.caps
+    assert caps.max_texture_size >= 2048
+    assert caps.max_vertex_texture_units >= 1, "vertex texture fetch is required"
+    assert caps.renderable["rgba8"] and caps.blendable["rgba8"]
+    assert caps.store_rule in ("round-to-nearest", "truncate", "floor256")
+    text = str(caps)
+    for label in ("renderer", "max texture size", "vertex texture image units",
+                  "rgba16f render target / additive blend", "8-bit store of a float channel"):
+        assert label in text
+
+
+def test_no_context_says_what_to_install(monkeypatch):
+    def no_gl(*args, **kwargs):
+        raise Exception("libEGL.so: cannot open shared object file")
+
+    monkeypatch.setattr(moderngl, "create_context", no_gl)
+    with pytest.raises(ContextError) as info:
+        open_context()
+    message = str(info.value)
+    assert "libegl1" in message and "libgl1-mesa-dri" in message and "libegl-mesa0" in message
+    assert "egl: libEGL.so: cannot open shared object file" in message
+
+
+def test_forced_backend_is_tried_alone(monkeypatch):
+    tried = []
+
+    def record(*args, **kwargs):
+        tried.append(kwargs.get("backend"))
+        raise Exception("nope")
+
+    monkeypatch.setattr(moderngl, "create_context", record)
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
+    with pytest.raises(ContextError):
+        context_module.open_context()
+    assert tried == ["egl"]
+
+
+def test_context_releases_everything_and_twice_is_safe():
+    ctx = open_context()
+    ctx.texture((4, 4))
+    ctx.program("lib/fullscreen.vert", "lib/constant.frag")
+    assert ctx.live_objects()
+    ctx.release()
+    ctx.release()
+    assert ctx.live_objects() == {}

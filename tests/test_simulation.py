@@ -1,0 +1,129 @@
+"""Executing pass graphs on a real GL context: ping-pong, time of reads, pruning, formats, leaks."""
+
+import numpy as np
+import pytest
+
+from conftest import shader
+from es2particles import ParameterError, PassGraph, Simulation
+
+WORLD_STEP = 1 / 65025  # grid step of a quantity with range [0, 1]
+
+
+def counter_graph(delta_reads_new=False):
+    g = PassGraph()
+    g.quantity("value", 0, 1)
+    g.quantity("copy_new", 0, 1)
+    g.quantity("copy_last", 0, 1)
+    g.add("add", shader("add_constant.frag"), writes="value", reads=["value"],
+          uniforms={"u_delta": (0.0, 0.0)})
+    g.add("copy_this_step", shader("copy.frag"), writes="copy_new", reads_new=["value"])
+    g.add("copy_last_step", shader("copy.frag"), writes="copy_last", reads=["value"])
+    return g
+
+
+@pytest.mark.parametrize("fmt", ["rgba8", "rgba16f", "rgba32f"])
+def test_ping_pong_adds_a_constant_each_step(gl, fmt):
+    n, steps = 1000, 7
+    delta = (300 * WORLD_STEP, 1000 * WORLD_STEP)  # whole codes: exact in the packed format
+    with Simulation(gl, counter_graph(), n, outputs=["value"], fmt=fmt) as sim:
+        start = np.stack([np.linspace(0, 0.5, n), np.full(n, 0.25)], axis=1)
+        start = np.round(start * 65025) / 65025
+        sim.upload("value", start)
+        sim.set_uniform("u_delta", delta)
+        sim.run(steps)
+        got = sim.download("value")
+    expected = start + steps * np.array(delta)
+    tolerance = {"rgba8": 1e-7, "rgba16f": steps * 2 ** -11, "rgba32f": 1e-6}[fmt]
+    error = np.abs(got - expected).max()
+    print(f"{fmt}: after {steps} steps max |error| = {error:.3e} (tolerance {tolerance:.1e})")
+    assert error <= tolerance
+
+
+def test_reads_see_this_steps_or_last_steps_value(gl):
+    n = 64
+    delta = (65 * WORLD_STEP, 0.0)
+    with Simulation(gl, counter_graph(), n) as sim:
+        sim.upload("value", np.full((n, 2), 0.5))
+        sim.set_uniform("u_delta", delta)
+        sim.run(3)
+        value, new, last = (sim.download(q) for q in ("value", "copy_new", "copy_last"))
+    assert np.allclose(value[:, 0], 0.5 + 3 * delta[0], atol=WORLD_STEP / 2)
+    assert np.array_equal(new, value), "reads_new must see this step's value"
+    assert np.allclose(last[:, 0], 0.5 + 2 * delta[0], atol=WORLD_STEP / 2), \
+        "reads must see last step's value"
+
+
+def test_pruned_passes_are_never_compiled_or_run(gl):
+    g = counter_graph()
+    g.quantity("broken", 0, 1)
+    g.add("never", shader("broken.frag"), writes="broken", reads=["value"])
+    # The broken shader would raise if it were compiled; pruning must leave it out entirely.
+    with Simulation(gl, g, 16, outputs=["value"]) as sim:
+        assert [p.spec.name for p in sim.passes] == ["add"]
+        assert set(sim.buffers) == {"value"}
+        sim.run(2)
+
+
+def test_a_user_pass_in_a_few_lines(gl, tmp_path):
+    frag = tmp_path / "swap_xy.frag"
+    frag.write_text("""#version 100
+precision highp float;
+#include "lib/state.glsl"
+varying vec2 v_uv;
+uniform sampler2D u_p;
+uniform vec4 u_p_range;
+uniform vec4 u_out_range;
+void main() { gl_FragColor = state_encode(state_read(u_p, v_uv, u_p_range).yx, u_out_range); }
+""")
+    g = PassGraph()
+    g.quantity("p", -1, 1)
+    g.add("swap", str(frag), writes="p", reads=["p"])
+    with Simulation(gl, g, 10) as sim:
+        start = np.stack([np.full(10, 0.5), np.full(10, -0.25)], axis=1)
+        sim.upload("p", start)
+        sim.step()
+        assert np.allclose(sim.download("p"), start[:, ::-1], atol=2 / 65025)
+
+
+def test_release_frees_every_gl_object(gl):
+    before = gl.live_objects()
+    sim = Simulation(gl, counter_graph(), 100)
+    sim.run(1)
+    sim.release()
+    sim.release()  # twice is safe
+    after = gl.live_objects()
+    after.pop("Program", None), before.pop("Program", None)  # programs are cached by the context
+    assert after == before
+
+
+def test_non_square_and_tiny_counts(gl):
+    for n in (1, 2, 1000, 4099):
+        with Simulation(gl, counter_graph(), n, outputs=["value"]) as sim:
+            assert sim.layout.width * sim.layout.height >= n
+            values = np.random.default_rng(n).random((n, 2))
+            sim.upload("value", values)
+            assert np.abs(sim.download("value") - values).max() <= WORLD_STEP / 2 + 1e-7
+
+
+@pytest.mark.parametrize("count", [0, -5, 2.5, "many"])
+def test_bad_particle_counts_are_clear_errors(gl, count):
+    with pytest.raises(ParameterError, match="particles"):
+        Simulation(gl, counter_graph(), count)
+
+
+def test_count_beyond_the_texture_limit_is_a_clear_error(gl):
+    limit = gl.caps.max_texture_size ** 2
+    with pytest.raises(ParameterError, match=rf"particles must be in \[1, {limit}\]"):
+        Simulation(gl, counter_graph(), limit + 1)
+
+
+def test_unknown_quantity_and_format_are_clear_errors(gl):
+    with Simulation(gl, counter_graph(), 4, outputs=["value"]) as sim:
+        with pytest.raises(ParameterError, match="quantity 'velocity' is not in this"):
+            sim.download("velocity")
+        with pytest.raises(ParameterError, match="values must have shape"):
+            sim.upload("value", np.zeros((3, 2)))
+        with pytest.raises(ParameterError, match="no pass of this plan has a uniform"):
+            sim.set_uniform("u_nothing", 1.0)
+    with pytest.raises(ParameterError, match="format must be one of"):
+        Simulation(gl, counter_graph(), 4, fmt="rgb565")

@@ -1,4 +1,4 @@
-"""The ``es2particles`` command: ``info`` now; scenes add ``run`` and ``plan``.
+"""The ``es2particles`` command: ``info``, ``plan SCENE`` and ``run SCENE``.
 
 Errors of the package (bad parameters, no GL, a shader that fails) are printed as one line with the
 exit status 2, not as a traceback.
@@ -33,7 +33,106 @@ def _info(args):
 
 
 def _add_scene_commands(commands):
-    """Scene commands (run, plan) register themselves here."""
+    from .scenes import SCENES
+
+    for command, text in (("run", "simulate a scene and write an image or animation"),
+                          ("plan", "print the passes a scene runs and what it leaves out")):
+        parser = commands.add_parser(command, help=text)
+        scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
+        for name, scene in SCENES.items():
+            sub = scenes.add_parser(name, help=(scene.__doc__ or "").splitlines()[0])
+            _add_common_arguments(sub, command == "run")
+            scene.add_arguments(sub)
+            sub.set_defaults(handler=_run if command == "run" else _plan, scene_class=scene)
+
+
+def _add_common_arguments(parser, running):
+    add = parser.add_argument
+    add("--particles", type=int, default=2 ** 20, help="particle count (default 2^20)")
+    add("--size", default="1024x1024", help="image size WxH (default 1024x1024)")
+    add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f"],
+        help="state storage format (default rgba8: 16-bit packed)")
+    add("--gradient", default="inferno",
+        help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
+             "path, or 'none' to switch the gradient map off")
+    add("--no-bloom", action="store_true", help="switch bloom off")
+    add("--bloom-threshold", type=float, default=0.6, help="bloom luminance threshold [0, 1]")
+    add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4]")
+    add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10]")
+    add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
+    add("--point-size", type=float, default=1.0, help="point diameter in pixels (default 1)")
+    add("--intensity", type=float, default=1.0, help="density each particle adds (default 1)")
+    add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
+    add("--steps", type=int, default=None, help="simulation steps before the (first) frame")
+    if running:
+        add("--out", required=True, help="output: .png image, or with --frames .webp/.gif/.png")
+        add("--frames", type=int, default=1, help="frames of an animation (default 1: a still)")
+        add("--steps-per-frame", type=int, default=1, help="steps between frames (default 1)")
+        add("--fps", type=float, default=30.0, help="animation frame rate (default 30)")
+        add("--save-state", default=None, help="also write the decoded state to this .npz")
+
+
+def _pipeline(ctx, args):
+    from .pipeline import Pipeline
+    from .post import Bloom
+
+    scene = args.scene_class.from_args(args)
+    bloom = None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
+                                             args.bloom_intensity)
+    gradient = None if args.gradient == "none" else args.gradient
+    return scene, Pipeline(ctx, scene, args.particles, args.size, args.format, args.point_size,
+                           args.intensity, args.exposure, gradient, bloom, args.seed)
+
+
+def _plan(args):
+    from .context import open_context
+
+    with open_context() as ctx:
+        scene, pipeline = _pipeline(ctx, args)
+        with pipeline:
+            print(pipeline.plan())
+
+
+def _run(args):
+    import time
+
+    from .context import open_context
+    from .errors import check_range
+    from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output, save_animation,
+                         save_image, save_state)
+    from .progress import progress
+
+    start = time.perf_counter()
+    frames = int(check_range("frames", args.frames, 1, 100000, integer=True))
+    per_frame = int(check_range("steps-per-frame", args.steps_per_frame, 1, 10 ** 6, integer=True))
+    fps = check_range("fps", args.fps, 0.1, 1000)
+    out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
+    state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
+                                                                   {".npz": "NPZ"})
+    with open_context() as ctx:
+        scene, pipeline = _pipeline(ctx, args)
+        steps = scene.default_steps if args.steps is None else args.steps
+        steps = int(check_range("steps", steps, 0, 10 ** 7, integer=True))
+        with pipeline:
+            scene.before_frame(pipeline.sim, 0, frames)
+            pipeline.step(steps)
+            if frames == 1:
+                save_image(pipeline.image(), out)
+            else:
+                images = []
+                for frame in progress(range(frames), frames, "frames"):
+                    if frame:
+                        scene.before_frame(pipeline.sim, frame, frames)
+                        pipeline.step(per_frame)
+                    pipeline.render()
+                    images.append(pipeline.image())
+                save_animation(images, out, fps)
+            if state_path is not None:
+                save_state(pipeline.state(), state_path)
+            print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "
+                  f"particles, {pipeline.sim.steps_done} steps, {frames} frame(s)) in "
+                  f"{time.perf_counter() - start:.2f} s; density target "
+                  f"{pipeline.renderer.format_note}")
 
 
 if __name__ == "__main__":

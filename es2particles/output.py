@@ -1,0 +1,78 @@
+"""Writing results: PNG images, animations (WebP, GIF, APNG) and decoded state (.npz).
+
+Paths are checked before any GL work starts, and every file is written to a temporary name in the
+same folder and renamed at the end, so a failure never leaves a half-written file behind.
+"""
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ParameterError
+
+IMAGE_SUFFIXES = {".png": "PNG"}
+ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG"}
+
+
+def check_output(path, parameter, suffixes):
+    """Return ``path`` as a Path if it can be written with one of ``suffixes``, else raise."""
+    if path is None:
+        raise ParameterError(f"{parameter} is required")
+    path = Path(path)
+    if path.suffix.lower() not in suffixes:
+        raise ParameterError(f"{parameter} must end in {', '.join(sorted(suffixes))}, got {str(path)!r}")
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        raise ParameterError(f"{parameter}: folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+        raise ParameterError(f"{parameter}: {str(path)!r} is not writable")
+    if path.is_dir():
+        raise ParameterError(f"{parameter}: {str(path)!r} is a folder, not a file")
+    return path
+
+
+def _atomic(path, write):
+    """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
+    os.close(fd)
+    try:
+        write(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    return path
+
+
+def save_image(pixels, path):
+    """Write an (h, w, 3) uint8 image as PNG."""
+    from PIL import Image
+
+    image = Image.fromarray(np.asarray(pixels, dtype=np.uint8), "RGB")
+    return _atomic(path, lambda tmp: image.save(tmp, format="PNG"))
+
+
+def save_animation(frames, path, fps=30):
+    """Write a list of (h, w, 3) uint8 frames as an animated WebP, GIF or PNG (APNG)."""
+    from PIL import Image
+
+    images = [Image.fromarray(np.asarray(f, dtype=np.uint8), "RGB") for f in frames]
+    fmt = ANIMATION_SUFFIXES[Path(path).suffix.lower()]
+    options = {"save_all": True, "append_images": images[1:], "duration": int(round(1000 / fps)),
+               "loop": 0}
+    if fmt == "WEBP":
+        options.update(quality=90, method=4)
+    return _atomic(path, lambda tmp: images[0].save(tmp, format=fmt, **options))
+
+
+def save_state(arrays, path):
+    """Write named float64 arrays (world units) to an .npz file."""
+    def write(tmp):
+        with open(tmp, "wb") as handle:
+            np.savez(handle, **{k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()})
+
+    return _atomic(path, write)

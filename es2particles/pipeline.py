@@ -1,0 +1,120 @@
+"""One frame of a scene, end to end: simulation steps, point rendering, post passes, readback.
+
+:class:`Pipeline` makes every GL object once (state, programs, the texel buffer, targets) and then
+only draws. Its :meth:`plan` prints what a frame runs and what was left out.
+"""
+
+import numpy as np
+
+from .errors import ParameterError, check_range
+from .post import PostChain
+from .render import PointRenderer
+from .simulation import Simulation
+
+
+def parse_size(text, max_size):
+    """'WxH' (or an int pair) to (w, h), each in [1, max_size]."""
+    if isinstance(text, str):
+        parts = text.lower().split("x")
+        if len(parts) != 2:
+            raise ParameterError(f"size must be WxH, e.g. 1024x1024, got {text!r}")
+        try:
+            text = tuple(int(p) for p in parts)
+        except ValueError:
+            raise ParameterError(f"size must be WxH with whole numbers, got {text!r}") from None
+    w, h = text
+    return (int(check_range("size width", w, 1, max_size, integer=True)),
+            int(check_range("size height", h, 1, max_size, integer=True)))
+
+
+class Pipeline:
+    """A scene's simulation, renderer and post chain on one context.
+
+    Parameters
+    ----------
+    ctx : Context
+    scene : Scene
+    particles : int
+    size : (int, int) or str
+        Image size; each side at most the context's max texture size.
+    fmt : str
+        State storage format.
+    point_size, intensity, exposure : float
+        Renderer and tone-curve settings.
+    gradient : str or None
+        Gradient-map ramp, or None to switch the gradient map off.
+    bloom : Bloom or None
+        Bloom settings, or None to switch bloom off.
+    seed : int
+        Seed of the starting state: the same arguments give the same image on the same driver.
+    """
+
+    def __init__(self, ctx, scene, particles=2 ** 20, size=(1024, 1024), fmt="rgba8",
+                 point_size=1.0, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
+                 seed=0):
+        self.ctx, self.scene = ctx, scene
+        self.size = parse_size(size, ctx.caps.max_texture_size)
+        seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
+        self.sim = self.renderer = self.post = None
+        try:
+            self.sim = Simulation(ctx, scene.graph(), particles, outputs=scene.outputs, fmt=fmt,
+                                  defines=scene.defines())
+            self.renderer = PointRenderer(ctx, self.sim.layout, self.size, scene.view, fmt,
+                                          point_size, intensity, scene.fade_by_life)
+            self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
+                                  bloom)
+        except Exception:
+            self.release()
+            raise
+        scene.initialise(self.sim, np.random.default_rng(seed))
+        self.final = None
+
+    def step(self, steps=1):
+        self.sim.run(steps)
+
+    def render(self):
+        """Draw the particles and run the post passes; returns the final texture."""
+        position = self.sim.buffers[self.scene.outputs[0]]
+        life = self.sim.buffers.get("life")
+        density = self.renderer.draw(position, life)
+        self.final = self.post.apply(density)
+        return self.final
+
+    def image(self):
+        """The last rendered frame as an (h, w, 3) uint8 array, top row first."""
+        if self.final is None:
+            self.render()
+        return self.post.read(self.final)
+
+    def state(self):
+        """Every simulated quantity, decoded to world units: name -> (N, 2) float64."""
+        return {name: self.sim.download(name) for name in self.sim.buffers}
+
+    def plan(self):
+        """The printable plan of a frame: simulation passes, rendering, post, what was left out."""
+        sim, r = self.sim, self.renderer
+        lines = [f"scene: {self.scene.name}; {sim.count} particles in {sim.layout.width}x"
+                 f"{sim.layout.height} texels ({sim.layout.spare} spare, never drawn); "
+                 f"state format {sim.fmt}",
+                 "simulation step:"]
+        lines += ["  " + line for line in str(sim.plan).splitlines()]
+        lines.append("frame:")
+        lines.append(f"  render: {sim.count} points, vertex texture fetch of "
+                     f"{self.scene.outputs[0]}, additive blend -> density {r.format_note} "
+                     f"{self.size[0]}x{self.size[1]}")
+        lines += ["  " + line for line in self.post.describe()]
+        left = self.post.left_out()
+        lines.append("  left out: " + (", ".join(left) if left else "nothing"))
+        return "\n".join(lines)
+
+    def release(self):
+        for part in (self.post, self.renderer, self.sim):
+            if part is not None:
+                part.release()
+        self.post = self.renderer = self.sim = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

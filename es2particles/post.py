@@ -1,0 +1,160 @@
+"""Post passes that turn a density texture into the final image: tone map with a gradient map,
+then bloom. Each is optional: a switched-off pass makes no texture and never runs.
+
+- Tone map (+ gradient map): log curve of density, then a colour ramp (``ramps.py``) or grey.
+- Bloom: bright pass at half resolution, separable Gaussian blur at 1/2 and 1/4 resolution,
+  composite onto the image.
+"""
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from .errors import check_range
+from .ramps import load_ramp
+
+
+@dataclass(frozen=True)
+class Bloom:
+    """Bloom settings: luminance threshold in [0, 1], blur radius (sigma in [0.5, 4] texels of the
+    half-resolution level; the quarter level doubles it), and how much glow is added."""
+
+    threshold: float = 0.6
+    radius: float = 3.0
+    intensity: float = 0.8
+
+    def __post_init__(self):
+        check_range("bloom threshold", self.threshold, 0, 1)
+        check_range("bloom radius", self.radius, 0.5, 4)  # 12 taps in blur.frag cover 3 sigma
+        check_range("bloom intensity", self.intensity, 0, 10)
+
+
+class _Stage:
+    """One full-screen post pass: a program, its target, and the textures it samples."""
+
+    def __init__(self, ctx, frag, size, defines=None, fmt="rgba8"):
+        self.ctx = ctx
+        self.program = ctx.program("lib/fullscreen.vert", frag, defines)
+        self.vao = ctx.fullscreen(self.program)
+        self.target = ctx.texture(size, fmt, filter_nearest=False)
+        self.framebuffer = ctx.framebuffer(self.target)
+
+    def set(self, **uniforms):
+        for name, value in uniforms.items():
+            self.program[name].value = value
+
+    def run(self, *textures):
+        for unit, texture in enumerate(textures):
+            texture.use(unit)
+        self.framebuffer.use()
+        self.vao.render(moderngl.TRIANGLES)
+        return self.target
+
+    def release(self):
+        self.ctx.free(self.vao, self.framebuffer, self.target)
+
+
+class PostChain:
+    """Tone map (with optional gradient map) and optional bloom, at ``size`` pixels.
+
+    Parameters
+    ----------
+    ctx : Context
+    size : (int, int)
+    mean_density : float
+        The density of an evenly covered pixel, which the tone curve is relative to.
+    exposure : float
+        Brightness of the tone curve (> 0).
+    gradient : str or None
+        Ramp spec for the gradient map (see ``ramps.load_ramp``); None for grey.
+    bloom : Bloom or None
+    """
+
+    def __init__(self, ctx, size, mean_density, exposure=1.0, gradient="inferno", bloom=Bloom()):
+        self.ctx, self.size = ctx, tuple(size)
+        exposure = check_range("exposure", exposure, 1e-3, 1e3)
+        self.gradient, self.bloom = gradient, bloom
+        self.stages = []
+        ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
+        try:
+            self.ramp = None
+            if ramp is not None:
+                self.ramp = ctx.texture((256, 1), "rgba8", data=ramp.tobytes(), filter_nearest=False)
+            self.tonemap = self._stage("post/tonemap.frag", self.size,
+                                       {"GRADIENT": None} if ramp is not None else None)
+            self.tonemap.set(u_density=0, u_mean=float(max(mean_density, 1e-12)),
+                             u_exposure=exposure)
+            if ramp is not None:
+                self.tonemap.set(u_ramp=1)
+            if bloom is not None:
+                self._make_bloom(bloom)
+        except Exception:
+            self.release()
+            raise
+
+    def _stage(self, frag, size, defines=None):
+        stage = _Stage(self.ctx, frag, size, defines)
+        self.stages.append(stage)
+        return stage
+
+    def _make_bloom(self, bloom):
+        w, h = self.size
+        self.levels = []
+        for div in (2, 4):
+            size = (max(1, w // div), max(1, h // div))
+            bright = self._stage("post/bright.frag", size)
+            bright.set(u_source=0, u_threshold=bloom.threshold)
+            blur_x = self._stage("post/blur.frag", size)
+            blur_y = self._stage("post/blur.frag", size)
+            # Sigma is in texels of each level, so the quarter level glows twice as wide.
+            blur_x.set(u_source=0, u_direction=(1 / size[0], 0.0), u_sigma=bloom.radius)
+            blur_y.set(u_source=0, u_direction=(0.0, 1 / size[1]), u_sigma=bloom.radius)
+            self.levels.append((bright, blur_x, blur_y))
+        self.composite = self._stage("post/composite.frag", self.size)
+        self.composite.set(u_source=0, u_bloom0=1, u_bloom1=2, u_intensity=bloom.intensity / 2)
+
+    def describe(self):
+        """Lines for the printed plan: what runs, with its textures."""
+        w, h = self.size
+        ramp = f"gradient map '{self.gradient}'" if self.gradient is not None else "grey (no gradient map)"
+        lines = [f"tone map (log) + {ramp} -> colour rgba8 {w}x{h}"]
+        if self.bloom is not None:
+            b = self.bloom
+            lines.append(f"bloom: bright pass (threshold {b.threshold:g}) + blur x/y at "
+                         f"{w // 2}x{h // 2} and {w // 4}x{h // 4} (sigma {b.radius:g}), "
+                         f"composite (intensity {b.intensity:g})")
+        return lines
+
+    def left_out(self):
+        out = []
+        if self.gradient is None:
+            out.append("gradient map (switched off)")
+        if self.bloom is None:
+            out.append("bloom (switched off)")
+        return out
+
+    def apply(self, density):
+        """Run the chain on the density texture; returns the final RGBA8 texture."""
+        textures = (density, self.ramp) if self.ramp is not None else (density,)
+        image = self.tonemap.run(*textures)
+        if self.bloom is None:
+            return image
+        blurred = []
+        for bright, blur_x, blur_y in self.levels:
+            blurred.append(blur_y.run(blur_x.run(bright.run(image))))
+        return self.composite.run(image, *blurred)
+
+    def read(self, texture):
+        """An RGBA8 texture as an (h, w, 3) uint8 image, top row first."""
+        w, h = texture.size
+        pixels = np.frombuffer(texture.read(), dtype=np.uint8).reshape(h, w, 4)
+        return pixels[::-1, :, :3].copy()
+
+    def release(self):
+        for stage in self.stages:
+            stage.release()
+        self.stages = []
+        if getattr(self, "ramp", None) is not None:
+            self.ctx.free(self.ramp)
+            self.ramp = None

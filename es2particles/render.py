@@ -1,0 +1,105 @@
+"""Drawing particles: one GL point per particle, its position fetched in the vertex shader.
+
+A static buffer of texel coordinates (made once; ES 1.00 has no gl_VertexID) names each
+particle's texel; ``points.vert`` fetches and unpacks the position there and ``points.frag`` adds a
+constant into the accumulation target with additive blending, so the target holds density. Only
+the ``count`` particles are in the buffer: spare texels are never drawn.
+"""
+
+import moderngl
+
+from .errors import CapabilityError, ParameterError, check_range
+from .simulation import FORMAT_DEFINES
+
+# Accumulation formats in order of preference: float ones do not saturate.
+ACCUMULATION_FORMATS = ("rgba32f", "rgba16f", "rgba8")
+
+
+def choose_accumulation(ctx):
+    """The first format that can take additive blending, and why it was taken."""
+    for fmt in ACCUMULATION_FORMATS:
+        if ctx.caps.blendable.get(fmt):
+            note = "" if fmt != "rgba8" else " (fallback: no float target can be blended into)"
+            return fmt, f"{fmt}{note}"
+    raise CapabilityError(f"no format can be blended into on {ctx.caps.renderer}")
+
+
+class PointRenderer:
+    """Renders the particles of a simulation as additive points into a density texture.
+
+    Parameters
+    ----------
+    ctx : Context
+    layout : Layout
+        Where the particles sit in the state textures.
+    size : (int, int)
+        Width and height of the density target in pixels.
+    view : (x0, y0, x1, y1)
+        The world rectangle that fills the target.
+    state_format : str
+        The simulation's storage format (the vertex shader decodes it).
+    point_size : float
+        Point diameter in pixels, within the context's point size range.
+    intensity : float
+        What one particle adds to its pixel (density units).
+    fade_by_life : bool
+        Scale each particle by 1 - age/lifetime from the ``life`` quantity; dead ones are not drawn.
+    """
+
+    def __init__(self, ctx, layout, size, view, state_format="rgba8", point_size=1.0,
+                 intensity=1.0, fade_by_life=False):
+        if ctx.caps.max_vertex_texture_units < 1:
+            raise CapabilityError("no support for vertex shader textures "
+                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0): cannot draw particles")
+        lo, hi = ctx.caps.point_size_range
+        self.point_size = check_range("point_size", point_size, lo, hi)
+        self.intensity = check_range("intensity", intensity, 0)
+        x0, y0, x1, y1 = (float(v) for v in view)
+        if not (x1 > x0 and y1 > y0):
+            raise ParameterError(f"view must have x1 > x0 and y1 > y0, got {view}")
+        self.ctx, self.layout, self.size = ctx, layout, tuple(size)
+        self.format, self.format_note = choose_accumulation(ctx)
+        # An 8-bit target saturates at 1: count in steps of 1/255 there, and say so in `scale`.
+        self.scale = 1.0 if self.format != "rgba8" else 1.0 / 255.0
+        defines = dict(FORMAT_DEFINES[state_format])
+        if fade_by_life:
+            defines["AGE_FADE"] = None
+        self.fade_by_life = fade_by_life
+        self.program = ctx.program("points.vert", "points.frag", defines)
+        self.texels = ctx.buffer(layout.texel_uv().tobytes())
+        self.vao = ctx.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
+        self.target = ctx.texture(self.size, self.format, filter_nearest=False)
+        self.framebuffer = ctx.framebuffer(self.target)
+        self.program["u_position"].value = 0
+        if fade_by_life:
+            self.program["u_life"].value = 1
+        self.program["u_view"].value = (x0, y0, x1 - x0, y1 - y0)
+        self.program["u_point_size"].value = self.point_size
+        self.program["u_colour"].value = (self.intensity * self.scale,) * 4
+        self._position_range = self.program["u_position_range"]
+        self._life_range = self.program["u_life_range"] if fade_by_life else None
+
+    @property
+    def mean_density(self):
+        """Density of a pixel if the particles were spread evenly (target units)."""
+        return self.layout.count * self.intensity * self.scale / (self.size[0] * self.size[1])
+
+    def draw(self, position, life=None):
+        """Clear the target and draw every particle; ``position``/``life`` are StateBuffers."""
+        mgl = self.ctx.mgl
+        self.framebuffer.use()
+        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+        mgl.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
+        mgl.blend_func = moderngl.ONE, moderngl.ONE
+        position.front.use(0)
+        self._position_range.value = tuple(position.quantity.range_vec4)
+        if self.fade_by_life:
+            life.front.use(1)
+            self._life_range.value = tuple(life.quantity.range_vec4)
+        self.vao.render(moderngl.POINTS, vertices=self.layout.count)
+        mgl.disable(moderngl.BLEND)
+        return self.target
+
+    def release(self):
+        self.ctx.free(self.vao, self.texels, self.framebuffer, self.target)
+        self.vao = self.texels = self.framebuffer = self.target = None

@@ -1,0 +1,39 @@
+"""What a scene tells the rest of the package: its pass graph, outputs, start and view."""
+
+import numpy as np
+
+
+class Scene:
+    """Base of the scenes. A scene is plain data plus a graph: no GL of its own."""
+
+    name = ""
+    view = (-1.0, -1.0, 1.0, 1.0)  # world rectangle that fills the image: x0, y0, x1, y1
+    outputs = ("position",)
+    fade_by_life = False
+    default_steps = 1
+
+    @classmethod
+    def add_arguments(cls, parser):
+        """Add the scene's own command-line options."""
+
+    @classmethod
+    def from_args(cls, args):
+        raise NotImplementedError
+
+    def graph(self):
+        """The scene's :class:`PassGraph`."""
+        raise NotImplementedError
+
+    def defines(self):
+        return {}
+
+    def initialise(self, sim, rng):
+        """Upload the starting state."""
+
+    def before_frame(self, sim, frame, frames):
+        """Set per-frame uniforms (animation); ``frame`` counts from 0 to ``frames - 1``."""
+
+
+def uniform_start(count, lo, hi, rng):
+    """``count`` points drawn uniformly from the rectangle [lo, hi] (float64)."""
+    return rng.uniform(np.asarray(lo, float), np.asarray(hi, float), size=(count, 2))

@@ -1,0 +1,28 @@
+#version 100
+// Density to colour: a log curve, so sparse and dense regions both show, then the gradient map.
+// t = log(1 + exposure d / mean) / log(1 + exposure * HEADROOM), with mean the density of a pixel
+// if every particle landed evenly; the ramp texture maps t to a colour (GRADIENT) or grey.
+precision highp float;
+precision highp sampler2D;
+
+varying vec2 v_uv;
+uniform sampler2D u_density;
+uniform float u_mean;      // particles * intensity / pixels
+uniform float u_exposure;
+#ifdef GRADIENT
+uniform sampler2D u_ramp;  // 256 x 1, linear filtering
+#endif
+
+const float HEADROOM = 256.0;
+
+void main()
+{
+    float d = texture2D(u_density, v_uv).r;
+    float t = log(1.0 + u_exposure * d / u_mean) / log(1.0 + u_exposure * HEADROOM);
+    t = clamp(t, 0.0, 1.0);
+#ifdef GRADIENT
+    gl_FragColor = vec4(texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb, 1.0);
+#else
+    gl_FragColor = vec4(vec3(t), 1.0);
+#endif
+}

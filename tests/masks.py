@@ -1,0 +1,16 @@
+"""A tiny binary dilation for the image tests (no scipy dependency)."""
+
+import numpy as np
+
+
+def dilate(mask, radius):
+    """Pixels within ``radius`` (Chebyshev) of a True pixel."""
+    out = mask.copy()
+    for _ in range(radius):
+        grown = out.copy()
+        grown[1:] |= out[:-1]
+        grown[:-1] |= out[1:]
+        grown[:, 1:] |= out[:, :-1]
+        grown[:, :-1] |= out[:, 1:]
+        out = grown
+    return out

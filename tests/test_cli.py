@@ -1,0 +1,93 @@
+"""The command line: images, animations, saved state, plans, and clear errors with no partial file."""
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from es2particles.cli import main
+
+SMALL = ["--particles", "4096", "--size", "64x64"]
+
+
+def test_run_writes_png_and_state(tmp_path, capsys):
+    out, state = tmp_path / "a.png", tmp_path / "s.npz"
+    assert main(["run", "dejong", *SMALL, "--steps", "3", "--out", str(out),
+                 "--save-state", str(state)]) == 0
+    with Image.open(out) as image:
+        assert image.size == (64, 64)
+    saved = np.load(state)
+    assert saved["position"].shape == (4096, 2) and saved["position"].dtype == np.float64
+    assert np.abs(saved["position"]).max() <= 2
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.png", "s.npz"]
+
+
+@pytest.mark.parametrize("suffix", [".webp", ".gif", ".png"])
+def test_run_writes_an_animation(tmp_path, suffix):
+    out = tmp_path / f"anim{suffix}"
+    assert main(["run", "dejong", *SMALL, "--reseed", "--frames", "3", "--animate-to",
+                 "1.5,-2.2,2.3,-2.0", "--out", str(out)]) == 0
+    with Image.open(out) as image:
+        assert getattr(image, "n_frames", 1) == 3
+
+
+def test_plan_shows_only_what_the_scene_needs(capsys):
+    assert main(["plan", "dejong", *SMALL, "--reseed", "--no-bloom"]) == 0
+    text = capsys.readouterr().out
+    assert "1. dejong: dejong.frag writes position; reads nothing" in text
+    assert "position: 1 (single" in text
+    assert "velocity" not in text and "acceleration" not in text
+    assert "left out: bloom (switched off)" in text
+    assert "bloom:" not in text
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--particles", "0"], "particles must be in [1, "),
+    (["--particles", "-3"], "particles must be in [1, "),
+    (["--particles", str(2 ** 40)], "particles must be in [1, "),
+    (["--size", "99999x64"], "size width must be in [1, "),
+    (["--size", "64"], "size must be WxH"),
+    (["--a", "nan"], "a must be finite"),
+    (["--d", "inf"], "d must be finite"),
+    (["--gradient", "rainbowish"], "gradient 'rainbowish' is unknown"),
+    (["--bloom-radius", "40"], "bloom radius must be in [0.5, 4]"),
+    (["--point-size", "0"], "point_size must be in ["),
+])
+def test_bad_input_is_a_clear_error_and_leaves_no_file(tmp_path, capsys, arguments, message):
+    out = tmp_path / "x.png"
+    assert main(["run", "dejong", *SMALL, *arguments, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "missing" / "x.png")]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.jpg")]) == 2
+    assert "--out must end in .png" in capsys.readouterr().err
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o500)
+    try:
+        import os
+
+        if os.access(locked, os.W_OK):  # root ignores permissions: nothing to test here
+            pytest.skip("running as root: a read-only folder is still writable")
+        assert main(["run", "dejong", *SMALL, "--out", str(locked / "x.png")]) == 2
+        assert "not writable" in capsys.readouterr().err
+    finally:
+        locked.chmod(0o700)
+
+
+def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
+    from es2particles import output
+
+    def explode(self, target, *args, **kwargs):
+        with open(target, "wb") as handle:  # half a file, then the failure
+            handle.write(b"\x89PNG")
+        raise OSError("disk full")
+
+    monkeypatch.setattr(Image.Image, "save", explode)
+    with pytest.raises(OSError):
+        output.save_image(np.zeros((4, 4, 3), np.uint8), tmp_path / "x.png")
+    assert list(tmp_path.iterdir()) == []

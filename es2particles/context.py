@@ -97,6 +97,11 @@ class Context:
         self._caps = None
         self._fullscreen = None
 
+    def make_current(self):
+        """Make this context the thread's current one (needed when several are open: GL calls go
+        to whichever context was made current last)."""
+        self.mgl.__enter__()
+
     # -- ownership ---------------------------------------------------------------------------
 
     def own(self, obj):

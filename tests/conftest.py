@@ -23,7 +23,8 @@ def ctx():
 
 @pytest.fixture
 def gl(ctx):
-    """The context, with no GL error allowed before or after the test."""
+    """The context, current, with no GL error allowed before or after the test."""
+    ctx.make_current()  # a test may have opened (and released) a context of its own
     assert ctx.mgl.error == "GL_NO_ERROR"
     yield ctx
     assert ctx.mgl.error == "GL_NO_ERROR"

@@ -62,7 +62,7 @@ class Pipeline:
             self.renderer = PointRenderer(ctx, self.sim.layout, self.size, scene.view, fmt,
                                           point_size, intensity, scene.fade_by_life)
             self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
-                                  bloom)
+                                  bloom, scene.background())
         except Exception:
             self.release()
             raise
@@ -98,6 +98,7 @@ class Pipeline:
                  f"state format {sim.fmt}",
                  "simulation step:"]
         lines += ["  " + line for line in str(sim.plan).splitlines()]
+        lines += ["  " + line for line in self.scene.describe()]
         lines.append("frame:")
         lines.append(f"  render: {sim.count} points, vertex texture fetch of "
                      f"{self.scene.outputs[0]}, additive blend -> density {r.format_note} "

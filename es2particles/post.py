@@ -69,24 +69,36 @@ class PostChain:
     gradient : str or None
         Ramp spec for the gradient map (see ``ramps.load_ramp``); None for grey.
     bloom : Bloom or None
+    background : (h, w, 4) uint8 array, optional
+        An image drawn under the particles (a scene's objects), stretched over the frame.
     """
 
-    def __init__(self, ctx, size, mean_density, exposure=1.0, gradient="inferno", bloom=Bloom()):
+    def __init__(self, ctx, size, mean_density, exposure=1.0, gradient="inferno", bloom=Bloom(),
+                 background=None):
         self.ctx, self.size = ctx, tuple(size)
         exposure = check_range("exposure", exposure, 1e-3, 1e3)
         self.gradient, self.bloom = gradient, bloom
         self.stages = []
         ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
+        self.ramp = self.background = None
         try:
-            self.ramp = None
+            defines, inputs = {}, []
             if ramp is not None:
                 self.ramp = ctx.texture((256, 1), "rgba8", data=ramp.tobytes(), filter_nearest=False)
-            self.tonemap = self._stage("post/tonemap.frag", self.size,
-                                       {"GRADIENT": None} if ramp is not None else None)
+                defines["GRADIENT"] = None
+                inputs.append(("u_ramp", self.ramp))
+            if background is not None:
+                h, w = background.shape[:2]
+                self.background = ctx.texture((w, h), "rgba8", data=np.ascontiguousarray(
+                    background, dtype=np.uint8).tobytes(), filter_nearest=False)
+                defines["BACKGROUND"] = None
+                inputs.append(("u_background", self.background))
+            self.tonemap = self._stage("post/tonemap.frag", self.size, defines)
             self.tonemap.set(u_density=0, u_mean=float(max(mean_density, 1e-12)),
                              u_exposure=exposure)
-            if ramp is not None:
-                self.tonemap.set(u_ramp=1)
+            for unit, (name, _) in enumerate(inputs, 1):
+                self.tonemap.set(**{name: unit})
+            self.tonemap_inputs = [texture for _, texture in inputs]
             if bloom is not None:
                 self._make_bloom(bloom)
         except Exception:
@@ -118,7 +130,8 @@ class PostChain:
         """Lines for the printed plan: what runs, with its textures."""
         w, h = self.size
         ramp = f"gradient map '{self.gradient}'" if self.gradient is not None else "grey (no gradient map)"
-        lines = [f"tone map (log) + {ramp} -> colour rgba8 {w}x{h}"]
+        under = " over the scene's objects" if self.background is not None else ""
+        lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h}"]
         if self.bloom is not None:
             b = self.bloom
             lines.append(f"bloom: bright pass (threshold {b.threshold:g}) + blur x/y at "
@@ -136,8 +149,7 @@ class PostChain:
 
     def apply(self, density):
         """Run the chain on the density texture; returns the final RGBA8 texture."""
-        textures = (density, self.ramp) if self.ramp is not None else (density,)
-        image = self.tonemap.run(*textures)
+        image = self.tonemap.run(density, *self.tonemap_inputs)
         if self.bloom is None:
             return image
         blurred = []
@@ -155,6 +167,5 @@ class PostChain:
         for stage in self.stages:
             stage.release()
         self.stages = []
-        if getattr(self, "ramp", None) is not None:
-            self.ctx.free(self.ramp)
-            self.ramp = None
+        self.ctx.free(self.ramp, self.background)
+        self.ramp = self.background = None

@@ -34,8 +34,18 @@ class _BoundPass:
         self._set("u_state_size", (float(layout.width), float(layout.height)))
         self._set("u_count", float(layout.count))
         self.step_uniform = self._handle("u_step")
+        self.extra = []  # (unit, texture) of textures that are not quantities, e.g. a field
         for name, value in spec.uniforms.items():
             self.set_uniform(name, value)
+
+    def attach(self, name, texture):
+        """Bind ``texture`` to sampler ``name`` if this pass declares it."""
+        if self._handle(name) is None:
+            return False
+        unit = len(self.inputs) + len(self.extra)
+        self._set(name, unit)
+        self.extra.append((unit, texture))
+        return True
 
     def _handle(self, name):
         return self.program[name] if name in self.program else None
@@ -59,6 +69,8 @@ class _BoundPass:
     def draw(self, step):
         for unit, buffer, new in self.inputs:
             (buffer.written if new else buffer.front).use(unit)
+        for unit, texture in self.extra:
+            texture.use(unit)
         if self.step_uniform is not None:
             self.step_uniform.value = float(step)
         self.target.target.use()
@@ -92,6 +104,7 @@ class Simulation:
         self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
         ctx.require_format(fmt)
         self.steps_done = 0
+        self.attached = []
         self.buffers = {}
         self.passes = []
         try:
@@ -128,10 +141,32 @@ class Simulation:
         """The texture holding the latest value of ``name`` (for a renderer)."""
         return self._buffer(name).front
 
+    def attach_texture(self, name, texture):
+        """Bind a texture that is not a quantity (a collision field, say) to sampler ``name`` of
+        every pass that declares it. The simulation owns it from now on and releases it."""
+        self.attached.append(texture)
+        if not any([p.attach(name, texture) for p in self.passes]):
+            raise ParameterError(f"no pass of this plan has a sampler named {name!r}")
+
     def set_uniform(self, name, value):
         """Set uniform ``name`` on every pass whose shader declares it."""
         if not any([p.set_uniform(name, value) for p in self.passes]):
             raise ParameterError(f"no pass of this plan has a uniform named {name!r}")
+
+    def set_uniforms(self, values):
+        """Set several uniforms; names no planned pass declares are passed over (a pruned pass
+        may have been the only one to use them)."""
+        for name, value in values.items():
+            for bound in self.passes:
+                bound.set_uniform(name, value)
+
+    def clamped(self, name):
+        """Particles whose ``name`` sits on an edge of its range, per component (N,) x 2: how
+        many values were clamped on write (a value is clamped, never wrapped)."""
+        values = self.download(name)
+        q = self.buffers[name].quantity
+        return [int(np.count_nonzero((values[:, k] <= q.lo[k]) | (values[:, k] >= q.hi[k])))
+                for k in range(2)]
 
     def step(self):
         """Run every planned pass once, then make this step's values the front ones."""
@@ -160,7 +195,8 @@ class Simulation:
             self.ctx.free(bound.vao)
         for buffer in self.buffers.values():
             buffer.release()
-        self.passes, self.buffers, self._swapped = [], {}, []
+        self.ctx.free(*self.attached)
+        self.passes, self.buffers, self._swapped, self.attached = [], {}, [], []
 
     def __enter__(self):
         return self

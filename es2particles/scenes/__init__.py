@@ -3,6 +3,7 @@
 ``SCENES`` maps a scene's command-line name to its class.
 """
 
+from .collision import Collision
 from .dejong import DeJong
 
-SCENES = {DeJong.name: DeJong}
+SCENES = {DeJong.name: DeJong, Collision.name: Collision}

@@ -30,6 +30,14 @@ class Scene:
     def initialise(self, sim, rng):
         """Upload the starting state."""
 
+    def background(self):
+        """An (h, w, 4) uint8 image drawn under the particles, or None."""
+        return None
+
+    def describe(self):
+        """Extra lines for the printed plan."""
+        return []
+
     def before_frame(self, sim, frame, frames):
         """Set per-frame uniforms (animation); ``frame`` counts from 0 to ``frames - 1``."""
 

@@ -23,10 +23,11 @@ void main()
     gl_Position = vec4((p - u_view.xy) / u_view.zw * 2.0 - 1.0, 0.0, 1.0);
     gl_PointSize = u_point_size;
 #ifdef AGE_FADE
-    // life = (age, lifetime): fade out as the particle gets older; dead ones are moved off screen.
+    // life = (age, lifetime): fade out as the particle gets older; unborn (age < 0) and dead
+    // (age >= lifetime) ones are moved outside the clip volume, so they are never drawn.
     vec2 life = state_read(u_life, a_texel, u_life_range);
     v_fade = clamp(1.0 - life.x / max(life.y, 1e-6), 0.0, 1.0);
-    if (life.y <= 0.0) {
+    if (!(life.x >= 0.0 && life.x < life.y)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
     }
 #endif

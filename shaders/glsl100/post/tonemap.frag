@@ -12,6 +12,9 @@ uniform float u_exposure;
 #ifdef GRADIENT
 uniform sampler2D u_ramp;  // 256 x 1, linear filtering
 #endif
+#ifdef BACKGROUND
+uniform sampler2D u_background;  // the scene's objects, drawn under the particles
+#endif
 
 const float HEADROOM = 256.0;
 
@@ -21,8 +24,12 @@ void main()
     float t = log(1.0 + u_exposure * d / u_mean) / log(1.0 + u_exposure * HEADROOM);
     t = clamp(t, 0.0, 1.0);
 #ifdef GRADIENT
-    gl_FragColor = vec4(texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb, 1.0);
+    vec3 colour = texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
 #else
-    gl_FragColor = vec4(vec3(t), 1.0);
+    vec3 colour = vec3(t);
 #endif
+#ifdef BACKGROUND
+    colour += texture2D(u_background, v_uv).rgb * (1.0 - t);
+#endif
+    gl_FragColor = vec4(colour, 1.0);
 }

@@ -1,0 +1,290 @@
+"""The collision field: signed distance and surface normal over the scene rectangle, in a texture.
+
+Built once, in numpy, from analytic shapes (circle, box, capsule, their union) or from a PNG mask
+(a silhouette), plus the walls and floor of the scene rectangle. Negative distance is inside an
+object. The texture holds, per cell, the distance as 16-bit packed fixed point (RG, over
+[-max_distance, max_distance]) and the unit normal as two 8-bit channels (BA, n * 0.5 + 0.5).
+
+The normal is stored, not derived from the distance gradient in the shader: one NEAREST fetch then
+gives a particle both (the chapter's single texture access), where a gradient would take four more
+fetches per sub-step and is undefined on the medial axis and in corners. Analytic shapes give exact
+normals; a mask's come from the gradient of its distance transform, computed once here.
+
+``sample`` is the numpy twin of ``field_sample`` in ``shaders/glsl100/lib/particle.glsl``.
+"""
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import packing
+from .errors import ParameterError, check_range
+
+FIELD_BYTES_PER_CELL = {"rgba8": 4, "rgba16f": 8, "rgba32f": 16}
+
+
+# --- shapes: signed distance and its gradient, float64 ----------------------------------------
+
+@dataclass(frozen=True)
+class Circle:
+    centre: tuple
+    radius: float
+
+    def sdf(self, p):
+        q = p - np.asarray(self.centre, float)
+        r = np.hypot(q[..., 0], q[..., 1])
+        return r - self.radius, _unit(q, fallback=(0.0, 1.0))
+
+    def bounds(self):
+        c = np.asarray(self.centre, float)
+        return c - self.radius, c + self.radius
+
+
+@dataclass(frozen=True)
+class Box:
+    centre: tuple
+    half_size: tuple
+
+    def sdf(self, p):
+        q = p - np.asarray(self.centre, float)
+        h = np.asarray(self.half_size, float)
+        d = np.abs(q) - h
+        outside = np.maximum(d, 0)
+        out_len = np.hypot(outside[..., 0], outside[..., 1])
+        inside = np.minimum(np.maximum(d[..., 0], d[..., 1]), 0)
+        dist = out_len + inside
+        sign = np.where(q >= 0, 1.0, -1.0)
+        # Outside: along the offset from the box; inside: along the axis of the nearest face.
+        grad_out = _unit(outside * sign, fallback=(0.0, 1.0))
+        x_face = d[..., 0] > d[..., 1]
+        grad_in = np.stack([np.where(x_face, sign[..., 0], 0.0), np.where(x_face, 0.0, sign[..., 1])], -1)
+        grad = np.where((out_len > 0)[..., None], grad_out, grad_in)
+        return dist, grad
+
+    def bounds(self):
+        c, h = np.asarray(self.centre, float), np.asarray(self.half_size, float)
+        return c - h, c + h
+
+
+@dataclass(frozen=True)
+class Capsule:
+    a: tuple
+    b: tuple
+    radius: float
+
+    def sdf(self, p):
+        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
+        ab = b - a
+        t = np.clip(((p - a) @ ab) / max(ab @ ab, 1e-300), 0, 1)
+        q = p - (a + t[..., None] * ab)
+        return np.hypot(q[..., 0], q[..., 1]) - self.radius, _unit(q, fallback=(0.0, 1.0))
+
+    def bounds(self):
+        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
+        return np.minimum(a, b) - self.radius, np.maximum(a, b) + self.radius
+
+
+def _unit(v, fallback):
+    n = np.hypot(v[..., 0], v[..., 1])[..., None]
+    safe = np.where(n > 1e-12, v / np.where(n > 1e-12, n, 1), np.asarray(fallback, float))
+    return safe
+
+
+def union(distances_and_normals):
+    """Union of shapes: the smallest distance, with the normal of the shape that gives it."""
+    dist, normal = distances_and_normals[0]
+    for d, n in distances_and_normals[1:]:
+        closer = d < dist
+        dist = np.where(closer, d, dist)
+        normal = np.where(closer[..., None], n, normal)
+    return dist, normal
+
+
+def walls(p, rect):
+    """Signed distance to the inside of the rectangle's walls and floor (solid outside it)."""
+    x0, y0, x1, y1 = rect
+    faces = np.stack([p[..., 0] - x0, x1 - p[..., 0], p[..., 1] - y0, y1 - p[..., 1]], -1)
+    normals = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]], float)
+    nearest = np.argmin(faces, axis=-1)
+    return np.take_along_axis(faces, nearest[..., None], -1)[..., 0], normals[nearest]
+
+
+# --- masks: a distance transform by jump flooding, in numpy -----------------------------------
+
+def load_mask(path, resolution):
+    """Boolean (h, w) solid mask from an image: alpha >= 50% where there is alpha, else dark
+    (luminance < 50%) pixels are solid. Row 0 is the bottom of the scene."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as image:
+            if "A" in image.getbands():
+                channel = image.getchannel("A")
+                solid_if_high = True
+            else:
+                channel = image.convert("L")
+                solid_if_high = False
+            channel = channel.resize(resolution, Image.NEAREST)
+            values = np.asarray(channel, dtype=np.float64)[::-1] / 255
+    except (OSError, ValueError) as error:
+        raise ParameterError(f"mask {str(path)!r} cannot be read as an image: {error}") from None
+    solid = values >= 0.5 if solid_if_high else values < 0.5
+    if not solid.any():
+        raise ParameterError(f"mask {str(path)!r} is empty: no solid pixels (dark, or opaque "
+                             "where the image has alpha)")
+    if solid.all():
+        raise ParameterError(f"mask {str(path)!r} is solid everywhere: particles have no room")
+    return solid
+
+
+def nearest_seed(seeds):
+    """For each cell, the (row, col) of a nearest True cell of ``seeds`` (jump flooding)."""
+    h, w = seeds.shape
+    rows, cols = np.indices((h, w))
+    best = np.where(seeds[..., None], np.stack([rows, cols], -1), -1)
+    step = 1 << int(np.ceil(np.log2(max(h, w))))
+    while step >= 1:
+        for dy in (-step, 0, step):
+            for dx in (-step, 0, step):
+                if dx == 0 and dy == 0:
+                    continue
+                shifted = np.full_like(best, -1)
+                ys = slice(max(dy, 0), h + min(dy, 0))
+                yd = slice(max(-dy, 0), h + min(-dy, 0))
+                xs = slice(max(dx, 0), w + min(dx, 0))
+                xd = slice(max(-dx, 0), w + min(-dx, 0))
+                shifted[yd, xd] = best[ys, xs]
+                valid = shifted[..., 0] >= 0
+                d_new = (shifted[..., 0] - rows) ** 2 + (shifted[..., 1] - cols) ** 2
+                d_old = np.where(best[..., 0] >= 0,
+                                 (best[..., 0] - rows) ** 2 + (best[..., 1] - cols) ** 2, np.inf)
+                better = valid & (d_new < d_old)
+                best[better] = shifted[better]
+        step //= 2
+    return best
+
+
+def mask_sdf(solid, cell):
+    """Signed distance (cells -> world via ``cell``) and normals of a solid mask."""
+    rows, cols = np.indices(solid.shape)
+    to_solid = nearest_seed(solid)
+    to_empty = nearest_seed(~solid)
+    d_out = np.hypot(to_solid[..., 0] - rows, to_solid[..., 1] - cols)
+    d_in = np.hypot(to_empty[..., 0] - rows, to_empty[..., 1] - cols)
+    # Cell centres: the surface lies half a cell from the nearest cell of the other kind.
+    dist = np.where(solid, -(d_in - 0.5), d_out - 0.5) * cell
+    gy, gx = np.gradient(dist)
+    return dist, _unit(np.stack([gx, gy], -1), fallback=(0.0, 1.0))
+
+
+# --- the field ---------------------------------------------------------------------------------
+
+class CollisionField:
+    """Distance and normal on a ``resolution`` grid of cells over ``rect`` (x0, y0, x1, y1).
+
+    Parameters
+    ----------
+    rect : tuple
+        The scene rectangle; its edges are walls and floor.
+    shapes : list
+        Circle, Box and Capsule objects (their union is solid).
+    mask : str or Path, optional
+        A PNG silhouette stretched over the rectangle, used instead of or with the shapes.
+    resolution : (int, int)
+        Cells along x and y.
+    max_distance : float
+        Distances are clamped to +-max_distance (the packed range); far cells only need "far".
+    """
+
+    def __init__(self, rect, shapes=(), mask=None, resolution=(256, 256), max_distance=0.25):
+        self.rect = tuple(float(v) for v in rect)
+        x0, y0, x1, y1 = self.rect
+        w, h = (int(check_range("field resolution", r, 8, 4096, integer=True)) for r in resolution)
+        self.resolution = (w, h)
+        self.cell = max((x1 - x0) / w, (y1 - y0) / h)
+        self.max_distance = check_range("max_distance", max_distance, self.cell, 1e3)
+        for shape in shapes:
+            lo, hi = shape.bounds()
+            if np.any(hi < (x0, y0)) or np.any(lo > (x1, y1)):
+                raise ParameterError(f"shape {shape} lies outside the scene rectangle {self.rect}")
+        xs = x0 + (np.arange(w) + 0.5) * (x1 - x0) / w
+        ys = y0 + (np.arange(h) + 0.5) * (y1 - y0) / h
+        centres = np.stack(np.meshgrid(xs, ys), -1)  # (h, w, 2), row 0 at the bottom
+        parts = [walls(centres, self.rect)] + [s.sdf(centres) for s in shapes]
+        if mask is not None:
+            parts.append(mask_sdf(load_mask(mask, (w, h)), self.cell))
+        self.shapes = tuple(shapes)
+        self.distance, self.normal = union(parts)
+        self.solid = self.distance < 0
+        self.range = packing.range_vec4(-self.max_distance, self.max_distance)
+
+    def texels(self):
+        """RGBA8 bytes (h, w, 4): packed distance in RG, normal in BA."""
+        unit = (np.clip(self.distance, -self.max_distance, self.max_distance) + self.max_distance) / (
+            2 * self.max_distance)
+        out = np.empty(self.distance.shape + (4,), np.uint8)
+        out[..., 0:2] = packing.pack16(unit.astype(np.float32))
+        out[..., 2:4] = np.round((self.normal * 0.5 + 0.5) * 255).clip(0, 255).astype(np.uint8)
+        return out
+
+    def decoded(self):
+        """(distance, normal) exactly as the shader decodes them from the texture."""
+        t = self.texels()
+        d = np.float32(-self.max_distance) + packing.unpack16(t[..., 0:2]) * np.float32(2 * self.max_distance)
+        n = t[..., 2:4].astype(np.float32) * np.float32(2 / 255) - np.float32(1)
+        return d.astype(np.float32), n
+
+    def sample(self, p):
+        """numpy twin of ``field_sample``: NEAREST cell's decoded (distance, normal) at points p."""
+        d, n = self._decoded if hasattr(self, "_decoded") else self._cache()
+        x0, y0, x1, y1 = self.rect
+        w, h = self.resolution
+        i = np.clip(np.floor((p[..., 0] - x0) / (x1 - x0) * w), 0, w - 1).astype(int)
+        j = np.clip(np.floor((p[..., 1] - y0) / (y1 - y0) * h), 0, h - 1).astype(int)
+        return d[j, i], n[j, i]
+
+    def _cache(self):
+        self._decoded = self.decoded()
+        return self._decoded
+
+    def exact_distance(self, p):
+        """Float64 signed distance of the analytic shapes and walls at points p (for tests)."""
+        return union([walls(p, self.rect)] + [s.sdf(p) for s in self.shapes])[0]
+
+    def upload(self, ctx):
+        """A NEAREST-sampled RGBA8 texture of the field, owned by ``ctx``."""
+        w, h = self.resolution
+        return ctx.texture((w, h), "rgba8", data=self.texels().tobytes())
+
+
+def memory_table(resolutions=((128, 128), (256, 256), (512, 512), (1024, 1024), (2048, 2048))):
+    """Rows (resolution, bytes per format) of the field's texture memory."""
+    return [(f"{w}x{h}", {fmt: w * h * b for fmt, b in FIELD_BYTES_PER_CELL.items()})
+            for w, h in resolutions]
+
+
+def parse_shape(spec, rect):
+    """A shape list from the command line: circle, box, capsule, their '+' union, or a PNG path.
+
+    Returns (shapes, mask_path)."""
+    x0, y0, x1, y1 = rect
+    cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
+    size = min(x1 - x0, y1 - y0)
+    presets = {
+        "circle": Circle((cx, cy - 0.15 * size), 0.18 * size),
+        "box": Box((cx, cy - 0.15 * size), (0.22 * size, 0.08 * size)),
+        "capsule": Capsule((cx - 0.2 * size, cy - 0.05 * size), (cx + 0.2 * size, cy - 0.25 * size),
+                           0.05 * size),
+    }
+    if spec.lower().endswith(".png"):
+        if not Path(spec).is_file():
+            raise ParameterError(f"shape mask {spec!r} does not exist")
+        return [], spec
+    shapes = []
+    for name in spec.split("+"):
+        if name not in presets:
+            raise ParameterError(f"shape must be circle, box, capsule, a '+' union of them "
+                                 f"(circle+box) or a PNG mask path, got {spec!r}")
+        shapes.append(presets[name])
+    return shapes, None

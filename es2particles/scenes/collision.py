@@ -1,0 +1,251 @@
+"""The collision scene: a fountain of particles under gravity that hit objects, bounce or slide
+off, age, fade and are emitted again.
+
+Three quantities, each one RGBA8 texture of two 16-bit values: ``position`` (the scene
+rectangle), ``velocity`` and ``life`` (age, lifetime; age < 0 means not yet born). Three passes,
+one per quantity, run the same ``particle_step()`` of ``lib/particle.glsl`` on last step's state:
+
+- forces: gravity, drag (exact exponential: stable for any k dt) and an optional spring towards a
+  point, evaluated at every sub-step inside the integrator. There is no acceleration pass: a
+  texture of accelerations would freeze the force at the step's start and cost a pass and a
+  texture, for no gain in a scene whose forces are a few uniforms.
+- integration: semi-implicit Euler in sub-steps of at most half a field cell (no tunnelling);
+- collision: the chapter's response (Listing 2.3) and a push-out by the penetration depth;
+- life: age, and respawn at the emitter from a hash of the particle's texel and the step number,
+  computed alike in every pass, so the three agree without extra state.
+
+``step_reference`` below is the float64 numpy twin of ``particle_step``.
+"""
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import ParameterError, check_range
+from ..field import CollisionField, parse_shape
+from ..graph import PassGraph
+from .base import Scene
+
+RECT = (-1.0, -1.0, 1.0, 1.0)
+MAX_SUBSTEPS = 64
+
+
+@dataclass(frozen=True)
+class Physics:
+    """The scene's parameters (SI-like units: scene units, seconds)."""
+
+    dt: float = 1 / 60
+    gravity: tuple = (0.0, -3.0)
+    drag: float = 0.05
+    spring: tuple = (0.0, 0.0, 0.0)  # centre x, y and omega^2
+    sliding: float = 0.5  # the particle's mass, clamped to [0, 1]
+    bounce: float = 0.6
+    emit: bool = True
+    emitter: tuple = (-0.75, -0.85)
+    direction: float = np.radians(62)
+    spread: float = 0.35
+    speed: tuple = (2.3, 2.9)
+    lifetime: tuple = (3.0, 5.0)
+    max_speed: float = 8.0  # velocity range is [-max_speed, max_speed]
+    max_age: float = 16.0  # life range: age in [-max_age, max_age], lifetime in [0, max_age]
+
+    def __post_init__(self):
+        check_range("dt", self.dt, 1e-6, 1.0)
+        check_range("drag", self.drag, 0, 1e6)
+        check_range("spring omega^2", self.spring[2], 0, 1e6)
+        object.__setattr__(self, "sliding", min(max(float(self.sliding), 0.0), 1.0))
+        check_range("bounce", self.bounce, 0, 2)
+        check_range("spread", self.spread, 0, 2 * np.pi)
+        check_range("max_speed", self.max_speed, 1e-3, 1e4)
+        check_range("max_age", self.max_age, 1e-3, 1e6)
+        lo, hi = (check_range("speed", v, 0, self.max_speed) for v in self.speed)
+        if hi < lo:
+            raise ParameterError(f"speed range must have min <= max, got {self.speed}")
+        lo, hi = (check_range("lifetime", v, 1e-3, self.max_age) for v in self.lifetime)
+        if hi < lo:
+            raise ParameterError(f"lifetime range must have min <= max, got {self.lifetime}")
+        for name, value in (("gravity", self.gravity), ("emitter", self.emitter)):
+            for v in value:
+                check_range(name, v, -1e4, 1e4)
+
+    def uniforms(self, field):
+        x0, y0, x1, y1 = field.rect
+        return {
+            "u_dt": float(self.dt), "u_gravity": tuple(map(float, self.gravity)),
+            "u_drag": float(self.drag), "u_spring": tuple(map(float, self.spring)),
+            "u_sliding": float(self.sliding), "u_bounce": float(self.bounce),
+            "u_cell": float(field.cell), "u_field_rect": (x0, y0, x1 - x0, y1 - y0),
+            "u_field_cells": tuple(map(float, field.resolution)),
+            "u_field_range": tuple(map(float, field.range)),
+            "u_emit": 1.0 if self.emit else 0.0,
+            "u_emitter": (*map(float, self.emitter), float(self.direction), float(self.spread)),
+            "u_speed": tuple(map(float, self.speed)), "u_lifetime": tuple(map(float, self.lifetime)),
+        }
+
+
+class Collision(Scene):
+    """A fountain bouncing off objects described by a distance/normal field."""
+
+    name = "collision"
+    view = RECT
+    outputs = ("position",)
+    fade_by_life = True
+
+    def __init__(self, shape="circle", physics=Physics(), field_resolution=(256, 256), field=None):
+        self.physics = physics
+        if field is None:
+            shapes, mask = parse_shape(shape, RECT)
+            field = CollisionField(RECT, shapes, mask, field_resolution)
+        self.field = field
+        # Steady from the first frame: run one longest lifetime before it (see initialise).
+        self.default_steps = int(np.ceil(physics.lifetime[1] / physics.dt)) if physics.emit else 0
+
+    @classmethod
+    def add_arguments(cls, parser):
+        add = parser.add_argument
+        add("--shape", default="circle", help="circle, box, capsule, a union such as circle+box, "
+            "or a PNG mask (dark or opaque pixels are solid) stretched over the scene")
+        add("--field-resolution", type=int, default=256, help="collision field cells per side")
+        add("--dt", type=float, default=1 / 60, help="time step in seconds (default 1/60)")
+        add("--gravity", type=float, default=3.0, help="downward acceleration (default 3)")
+        add("--drag", type=float, default=0.05, help="drag coefficient k (default 0.05)")
+        add("--sliding", type=float, default=0.5, help="sliding factor (mass) in [0, 1]")
+        add("--bounce", type=float, default=0.6, help="bouncing resistance r (default 0.6)")
+        add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"))
+        add("--speed", type=float, nargs=2, default=(2.3, 2.9), metavar=("MIN", "MAX"))
+
+    @classmethod
+    def from_args(cls, args):
+        if args.lifetime[0] < 0 or args.lifetime[1] < 0:
+            raise ParameterError(f"lifetime must be positive, got {tuple(args.lifetime)}")
+        physics = Physics(dt=args.dt, gravity=(0.0, -args.gravity), drag=args.drag,
+                          sliding=args.sliding, bounce=args.bounce, lifetime=tuple(args.lifetime),
+                          speed=tuple(args.speed))
+        res = int(check_range("field-resolution", args.field_resolution, 8, 4096, integer=True))
+        return cls(args.shape, physics, (res, res))
+
+    def graph(self):
+        p = self.physics
+        g = PassGraph()
+        g.quantity("position", RECT[:2], RECT[2:])
+        g.quantity("velocity", -p.max_speed, p.max_speed)
+        g.quantity("life", (-p.max_age, 0.0), (p.max_age, p.max_age))
+        state = ("position", "velocity", "life")
+        g.add("velocity", "collision.frag", writes="velocity", reads=state,
+              defines={"WRITE_VELOCITY": None})
+        g.add("position", "collision.frag", writes="position", reads=state,
+              defines={"WRITE_POSITION": None})
+        g.add("life", "collision.frag", writes="life", reads=("life",),
+              defines={"WRITE_LIFE": None})
+        return g
+
+    def initialise(self, sim, rng):
+        n = sim.count
+        p = self.physics
+        sim.attach_texture("u_field", self.field.upload(sim.ctx))
+        sim.set_uniforms(self.physics.uniforms(self.field))
+        # Not yet born, with birth delays spread evenly over the longest lifetime: emission runs
+        # at its steady rate from the start, and after one lifetime the fountain is steady.
+        life = np.zeros((n, 2))
+        life[:, 0] = -rng.uniform(0, p.lifetime[1], n) if p.emit else 0.0
+        life[:, 1] = rng.uniform(*p.lifetime, n) if p.emit else p.max_age
+        sim.upload("life", life)
+        sim.upload("position", np.tile(p.emitter, (n, 1)))
+
+    def describe(self):
+        from ..field import memory_table
+
+        f, p = self.field, self.physics
+        w, h = f.resolution
+        lines = [f"collision field: {w}x{h} cells of {f.cell:.4g} (RGBA8: packed distance within "
+                 f"+-{f.max_distance:g}, 8-bit normal), {w * h * 4} bytes; made once in numpy",
+                 f"physics: dt {p.dt:.4g}, sub-steps of at most half a cell (<= {MAX_SUBSTEPS}), "
+                 f"gravity {p.gravity}, drag {p.drag:g} (exact), sliding {p.sliding:g}, "
+                 f"bounce {p.bounce:g}"]
+        if p.spring[2] == 0:
+            lines.append("no acceleration pass: forces are uniforms evaluated at every sub-step")
+        lines.append("field memory by format (bytes): " + "; ".join(
+            f"{res}: " + ", ".join(f"{fmt} {b}" for fmt, b in sizes.items())
+            for res, sizes in memory_table()))
+        return lines
+
+    def background(self):
+        """An RGBA image of the objects (h, w, 4), drawn under the particles."""
+        shade = np.zeros(self.field.solid.shape + (4,), np.uint8)
+        shade[self.field.solid] = (46, 58, 84, 255)
+        edge = self.field.solid & (self.field.distance > -2 * self.field.cell)
+        shade[edge] = (110, 130, 170, 255)
+        return shade
+
+
+# --- numpy twin of lib/particle.glsl (float64) -------------------------------------------------
+
+def hash44(p4):
+    """numpy twin of ``hash44`` in ``lib/hash.glsl`` (float32, like the GPU)."""
+    f = np.float32
+    p4 = np.asarray(p4, np.float32)
+    p4 = p4 * np.array([0.1031, 0.1030, 0.0973, 0.1099], f)
+    p4 = p4 - np.floor(p4)
+    p4 = p4 + np.sum(p4 * (p4[..., [3, 2, 0, 1]] + f(33.33)), axis=-1, keepdims=True)
+    out = (p4[..., [0, 0, 1, 2]] + p4[..., [1, 2, 2, 3]]) * p4[..., [2, 1, 3, 0]]
+    return out - np.floor(out)
+
+
+def acceleration(x, p):
+    ox, oy, w2 = p.spring
+    return np.asarray(p.gravity, float) + w2 * (np.array([ox, oy]) - x)
+
+
+def collide(x, v, a, field, p):
+    d, n = field.sample(x)
+    d, n = d.astype(np.float64), n.astype(np.float64)
+    hit = d < 0
+    vn = np.sum(v * n, axis=-1)
+    respond = hit & (vn < 0)
+    speed = np.hypot(v[:, 0], v[:, 1])
+    along = v - vn[:, None] * n
+    along_len = np.hypot(along[:, 0], along[:, 1])
+    turned = np.stack([-n[:, 1], n[:, 0]], -1)
+    has_tangent = along_len > 1e-6 * speed
+    t = np.where(has_tangent[:, None], along / np.where(has_tangent, along_len, 1)[:, None], turned)
+    new_v = speed[:, None] * (n * p.sliding + t * (1 - p.sliding)) * p.bounce
+    v = np.where(respond[:, None], new_v, v)
+    x = np.where(hit[:, None], x - d[:, None] * n, x)
+    v2 = np.sum(v * v, axis=-1)
+    scale = np.sqrt(np.maximum(v2 - 2 * d * np.sum(a * n, axis=-1), 0) / np.where(v2 > 0, v2, 1))
+    v = np.where((hit & (v2 > 0))[:, None], v * scale[:, None], v)
+    return x, v
+
+
+def integrate(x, v, field, p):
+    a0 = acceleration(x, p)
+    reach = (np.hypot(v[:, 0], v[:, 1]) + np.hypot(a0[:, 0], a0[:, 1]) * p.dt) * p.dt
+    n = np.maximum(np.ceil(reach / (0.5 * field.cell)), np.ceil(np.sqrt(p.spring[2]) * p.dt))
+    n = np.clip(n, 1, MAX_SUBSTEPS)
+    h = p.dt / n
+    kh = p.drag * h
+    decay = np.exp(-kh)
+    gain = np.where(kh < 1e-3, h * (1 - 0.5 * kh), (1 - decay) / max(p.drag, 1e-300))
+    for i in range(int(n.max()) if len(n) else 0):
+        active = (i < n)[:, None]
+        a = acceleration(x, p)
+        v_new = v * decay[:, None] + a * gain[:, None]
+        x_new = x + v_new * h[:, None]
+        x_new, v_new = collide(x_new, v_new, a, field, p)
+        x, v = np.where(active, x_new, x), np.where(active, v_new, v)
+    return x, v
+
+
+def step_reference(x, v, life, field, p):
+    """One step of every particle in float64, without respawn (tests keep lifetimes long)."""
+    x, v, life = (np.array(a, dtype=np.float64) for a in (x, v, life))
+    alive = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+    xi, vi = integrate(x[alive], v[alive], field, p)
+    x[alive], v[alive] = xi, vi
+    life[:, 0] += p.dt
+    return x, v, life
+
+
+def with_physics(scene, **changes):
+    """A copy of ``scene`` with some physics changed (same field)."""
+    return Collision(physics=replace(scene.physics, **changes), field=scene.field)

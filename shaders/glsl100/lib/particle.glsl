@@ -1,0 +1,132 @@
+// One step of a collision-scene particle: forces, sub-stepped integration, collision response
+// against the distance/normal field, lifetime and respawn. Every pass of the scene calls
+// particle_step() with the same inputs, so each computes the same particle and writes its own
+// part of it (ES 2.0: one render target per pass). numpy twin: scenes/collision.py.
+#include "lib/state.glsl"
+#include "lib/hash.glsl"
+
+#ifndef MAX_SUBSTEPS
+#define MAX_SUBSTEPS 64
+#endif
+
+uniform float u_step;
+uniform vec2 u_state_size;
+uniform float u_dt;
+uniform vec2 u_gravity;
+uniform float u_drag;        // k of v' = -k v, integrated exactly (stable for any k dt)
+uniform vec3 u_spring;       // centre.xy and omega^2 of a pull towards a point
+uniform float u_sliding;     // s: 1 bounces along the normal, 0 slides along the surface
+uniform float u_bounce;      // r: bouncing resistance, the speed kept on contact
+uniform float u_cell;        // field cell size: a sub-step moves at most half of it
+uniform sampler2D u_field;   // RG: packed distance, BA: normal * 0.5 + 0.5
+uniform vec4 u_field_rect;   // x0, y0, width, height of the scene rectangle
+uniform vec2 u_field_cells;
+uniform vec4 u_field_range;  // distance range as (lo, lo, span, span)
+uniform float u_emit;        // 1: dead particles respawn at the emitter; 0: they stay dead
+uniform vec4 u_emitter;      // position.xy, direction angle, spread angle
+uniform vec2 u_speed;        // emission speed range
+uniform vec2 u_lifetime;     // lifetime range
+
+struct Particle {
+    vec2 x;
+    vec2 v;
+    vec2 life;  // age, lifetime; age < 0: not yet born
+};
+
+void field_sample(vec2 p, out float d, out vec2 n)
+{
+    vec2 cell = clamp(floor((p - u_field_rect.xy) / u_field_rect.zw * u_field_cells),
+                      vec2(0.0), u_field_cells - 1.0);
+    vec4 t = texture2D(u_field, (cell + 0.5) / u_field_cells);
+    d = u_field_range.x + unpack16(t.xy) * u_field_range.z;
+    n = floor(t.zw * 255.0 + 0.5) * (2.0 / 255.0) - 1.0;
+}
+
+vec2 acceleration(vec2 x)
+{
+    return u_gravity + u_spring.z * (u_spring.xy - x);
+}
+
+void collide(inout vec2 x, inout vec2 v, vec2 a)
+{
+    float d;
+    vec2 n;
+    field_sample(x, d, n);
+    if (d >= 0.0) {
+        return;
+    }
+    float vn = dot(v, n);
+    if (vn < 0.0) {
+        // The chapter's response: v' = |v| (n s + t (1 - s)) r, t the tangent along the motion;
+        // if v is along n there is no such tangent: take the normal turned a quarter.
+        float speed = length(v);
+        vec2 along = v - vn * n;
+        float along_length = length(along);
+        vec2 t = (along_length > 1e-6 * speed) ? along / along_length : vec2(-n.y, n.x);
+        v = speed * (n * u_sliding + t * (1.0 - u_sliding)) * u_bounce;
+    }
+    // Out of the object along the normal by the penetration depth. The work of the acceleration
+    // over that move is taken from the kinetic energy, so a push-out never adds energy.
+    x -= d * n;
+    float v2 = dot(v, v);
+    if (v2 > 0.0) {
+        v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);
+    }
+}
+
+void integrate(inout vec2 x, inout vec2 v)
+{
+    // Sub-steps: each moves at most half a field cell (no tunnelling through a wall one cell
+    // thick) and keeps omega h <= 1 for the spring (bounded).
+    float reach = (length(v) + length(acceleration(x)) * u_dt) * u_dt;
+    float n = max(ceil(reach / (0.5 * u_cell)), ceil(sqrt(u_spring.z) * u_dt));
+    n = clamp(n, 1.0, float(MAX_SUBSTEPS));
+    float h = u_dt / n;
+    float kh = u_drag * h;
+    float decay = exp(-kh);
+    float gain = (kh < 1e-3) ? h * (1.0 - 0.5 * kh) : (1.0 - decay) / u_drag;
+    for (int i = 0; i < MAX_SUBSTEPS; ++i) {
+        if (float(i) >= n) {
+            break;
+        }
+        vec2 a = acceleration(x);
+        v = v * decay + a * gain;
+        x += v * h;
+        collide(x, v, a);
+    }
+}
+
+Particle spawn(vec2 uv)
+{
+    vec2 texel = floor(uv * u_state_size);
+    vec4 r = hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0)));
+    float angle = u_emitter.z + (r.x - 0.5) * u_emitter.w;
+    vec2 direction = vec2(cos(angle), sin(angle));
+    // Born at a random moment within the step, so a stream leaves the emitter smoothly rather
+    // than in one bunch per step.
+    float since = r.w * u_dt;
+    Particle p;
+    p.v = direction * mix(u_speed.x, u_speed.y, r.y);
+    p.x = u_emitter.xy + p.v * since;
+    p.life = vec2(since, mix(u_lifetime.x, u_lifetime.y, r.z));
+    return p;
+}
+
+Particle particle_step(vec2 x, vec2 v, vec2 life, vec2 uv)
+{
+    Particle p;
+    p.x = x;
+    p.v = v;
+    p.life = vec2(life.x + u_dt, life.y);
+    bool born = life.x < 0.0 && p.life.x >= 0.0;
+    bool ended = life.x < life.y && p.life.x >= life.y;
+    if ((born || ended) && u_emit > 0.5) {
+        return spawn(uv);
+    }
+    if (life.x >= 0.0 && life.x < life.y) {
+#ifndef WRITE_LIFE
+        integrate(p.x, p.v);
+#endif
+    }
+    return p;
+}

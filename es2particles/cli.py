@@ -48,7 +48,8 @@ def _add_scene_commands(commands):
 
 def _add_common_arguments(parser, running):
     add = parser.add_argument
-    add("--particles", type=int, default=2 ** 20, help="particle count (default 2^20)")
+    add("--particles", type=int, default=None,
+        help="particle count (default: 2^20 for dejong, 2^17 for collision)")
     add("--size", default="1024x1024", help="image size WxH (default 1024x1024)")
     add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f"],
         help="state storage format (default rgba8: 16-bit packed)")
@@ -60,7 +61,8 @@ def _add_common_arguments(parser, running):
     add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4]")
     add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10]")
     add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
-    add("--point-size", type=float, default=1.0, help="point diameter in pixels (default 1)")
+    add("--point-size", type=float, default=None,
+        help="point diameter in pixels (default: 1 for dejong, 2 for collision)")
     add("--intensity", type=float, default=1.0, help="density each particle adds (default 1)")
     add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
     add("--steps", type=int, default=None, help="simulation steps before the (first) frame")
@@ -80,7 +82,9 @@ def _pipeline(ctx, args):
     bloom = None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
                                              args.bloom_intensity)
     gradient = None if args.gradient == "none" else args.gradient
-    return scene, Pipeline(ctx, scene, args.particles, args.size, args.format, args.point_size,
+    particles = scene.default_particles if args.particles is None else args.particles
+    point_size = scene.default_point_size if args.point_size is None else args.point_size
+    return scene, Pipeline(ctx, scene, particles, args.size, args.format, point_size,
                            args.intensity, args.exposure, gradient, bloom, args.seed)
 
 

@@ -1,7 +1,8 @@
 """The collision field: signed distance and surface normal over the scene rectangle, in a texture.
 
 Built once, in numpy, from analytic shapes (circle, box, capsule, their union) or from a PNG mask
-(a silhouette), plus the walls and floor of the scene rectangle. Negative distance is inside an
+(a silhouette). The walls and floor (the scene rectangle's edges) are exact planes in the shader,
+not cells of the texture: a corner cell would hold one wall's normal and hide the other. Negative distance is inside an
 object. The texture holds, per cell, the distance as 16-bit packed fixed point (RG, over
 [-max_distance, max_distance]) and the unit normal as two 8-bit channels (BA, n * 0.5 + 0.5).
 
@@ -102,7 +103,8 @@ def union(distances_and_normals):
 
 
 def walls(p, rect):
-    """Signed distance to the inside of the rectangle's walls and floor (solid outside it)."""
+    """Signed distance to the inside of the rectangle's walls and floor (solid outside it).
+    Only the float64 checks use it: the shader tests the walls as planes."""
     x0, y0, x1, y1 = rect
     faces = np.stack([p[..., 0] - x0, x1 - p[..., 0], p[..., 1] - y0, y1 - p[..., 1]], -1)
     normals = np.array([[1, 0], [-1, 0], [0, 1], [0, -1]], float)
@@ -211,7 +213,10 @@ class CollisionField:
         xs = x0 + (np.arange(w) + 0.5) * (x1 - x0) / w
         ys = y0 + (np.arange(h) + 0.5) * (y1 - y0) / h
         centres = np.stack(np.meshgrid(xs, ys), -1)  # (h, w, 2), row 0 at the bottom
-        parts = [walls(centres, self.rect)] + [s.sdf(centres) for s in shapes]
+        # The walls are not in the texture: the shader tests them as exact planes (see
+        # collide() in lib/particle.glsl). Far from every object the field reads max_distance.
+        far = (np.full(centres.shape[:2], self.max_distance), np.tile([0.0, 1.0], centres.shape[:2] + (1,)))
+        parts = [far] + [s.sdf(centres) for s in shapes]
         if mask is not None:
             parts.append(mask_sdf(load_mask(mask, (w, h)), self.cell))
         self.shapes = tuple(shapes)
@@ -233,23 +238,27 @@ class CollisionField:
         t = self.texels()
         d = np.float32(-self.max_distance) + packing.unpack16(t[..., 0:2]) * np.float32(2 * self.max_distance)
         n = t[..., 2:4].astype(np.float32) * np.float32(2 / 255) - np.float32(1)
+        n = n / np.hypot(n[..., 0], n[..., 1])[..., None]  # as normalize() in the shader
         return d.astype(np.float32), n
 
     def sample(self, p):
-        """numpy twin of ``field_sample``: NEAREST cell's decoded (distance, normal) at points p."""
+        """numpy twin of ``field_sample``: the NEAREST cell's decoded normal, and its distance
+        carried from the cell's centre to p along that normal."""
         d, n = self._decoded if hasattr(self, "_decoded") else self._cache()
         x0, y0, x1, y1 = self.rect
         w, h = self.resolution
         i = np.clip(np.floor((p[..., 0] - x0) / (x1 - x0) * w), 0, w - 1).astype(int)
         j = np.clip(np.floor((p[..., 1] - y0) / (y1 - y0) * h), 0, h - 1).astype(int)
-        return d[j, i], n[j, i]
+        centre = np.stack([x0 + (i + 0.5) / w * (x1 - x0), y0 + (j + 0.5) / h * (y1 - y0)], -1)
+        normal = n[j, i].astype(np.float64)
+        return d[j, i] + np.sum(normal * (p - centre), axis=-1), normal
 
     def _cache(self):
         self._decoded = self.decoded()
         return self._decoded
 
     def exact_distance(self, p):
-        """Float64 signed distance of the analytic shapes and walls at points p (for tests)."""
+        """Float64 signed distance to the analytic shapes and the walls at points p (tests)."""
         return union([walls(p, self.rect)] + [s.sdf(p) for s in self.shapes])[0]
 
     def upload(self, ctx):

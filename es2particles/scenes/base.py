@@ -11,6 +11,8 @@ class Scene:
     outputs = ("position",)
     fade_by_life = False
     default_steps = 1
+    default_particles = 2 ** 20
+    default_point_size = 1.0
 
     @classmethod
     def add_arguments(cls, parser):

@@ -6,7 +6,7 @@
 #include "lib/hash.glsl"
 
 #ifndef MAX_SUBSTEPS
-#define MAX_SUBSTEPS 64
+#define MAX_SUBSTEPS 256
 #endif
 
 uniform float u_step;
@@ -38,8 +38,13 @@ void field_sample(vec2 p, out float d, out vec2 n)
     vec2 cell = clamp(floor((p - u_field_rect.xy) / u_field_rect.zw * u_field_cells),
                       vec2(0.0), u_field_cells - 1.0);
     vec4 t = texture2D(u_field, (cell + 0.5) / u_field_cells);
-    d = u_field_range.x + unpack16(t.xy) * u_field_range.z;
-    n = floor(t.zw * 255.0 + 0.5) * (2.0 / 255.0) - 1.0;
+    // 8 bits per component leave |n| up to ~0.5% off 1, and the response scales the speed by it.
+    n = normalize(floor(t.zw * 255.0 + 0.5) * (2.0 / 255.0) - 1.0);
+    // The texel holds the distance at the cell's centre; carry it to the particle along the
+    // normal (first order: exact for a flat surface). Without this a push-out could move a
+    // particle up to half a cell too far, and a resting particle would gain energy.
+    vec2 centre = u_field_rect.xy + (cell + 0.5) / u_field_cells * u_field_rect.zw;
+    d = u_field_range.x + unpack16(t.xy) * u_field_range.z + dot(n, p - centre);
 }
 
 vec2 acceleration(vec2 x)
@@ -47,14 +52,8 @@ vec2 acceleration(vec2 x)
     return u_gravity + u_spring.z * (u_spring.xy - x);
 }
 
-void collide(inout vec2 x, inout vec2 v, vec2 a)
+void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n)
 {
-    float d;
-    vec2 n;
-    field_sample(x, d, n);
-    if (d >= 0.0) {
-        return;
-    }
     float vn = dot(v, n);
     if (vn < 0.0) {
         // The chapter's response: v' = |v| (n s + t (1 - s)) r, t the tangent along the motion;
@@ -71,6 +70,32 @@ void collide(inout vec2 x, inout vec2 v, vec2 a)
     float v2 = dot(v, v);
     if (v2 > 0.0) {
         v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);
+    }
+}
+
+void collide(inout vec2 x, inout vec2 v, vec2 a)
+{
+    float d;
+    vec2 n;
+    field_sample(x, d, n);
+    if (d < 0.0) {
+        respond(x, v, a, d, n);
+    }
+    // Walls and floor, the edges of the scene rectangle: exact planes, so a corner holds no
+    // cell whose one normal hides the other wall.
+    vec2 lo = u_field_rect.xy;
+    vec2 hi = u_field_rect.xy + u_field_rect.zw;
+    if (x.x < lo.x) {
+        respond(x, v, a, x.x - lo.x, vec2(1.0, 0.0));
+    }
+    if (x.x > hi.x) {
+        respond(x, v, a, hi.x - x.x, vec2(-1.0, 0.0));
+    }
+    if (x.y < lo.y) {
+        respond(x, v, a, x.y - lo.y, vec2(0.0, 1.0));
+    }
+    if (x.y > hi.y) {
+        respond(x, v, a, hi.y - x.y, vec2(0.0, -1.0));
     }
 }
 

@@ -281,10 +281,10 @@ def parse_shape(spec, rect):
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
     size = min(x1 - x0, y1 - y0)
     presets = {
-        "circle": Circle((cx, cy - 0.15 * size), 0.18 * size),
-        "box": Box((cx, cy - 0.15 * size), (0.22 * size, 0.08 * size)),
-        "capsule": Capsule((cx - 0.2 * size, cy - 0.05 * size), (cx + 0.2 * size, cy - 0.25 * size),
-                           0.05 * size),
+        "circle": Circle((cx + 0.15 * size, cy - 0.2 * size), 0.11 * size),
+        "box": Box((cx + 0.3 * size, cy - 0.38 * size), (0.12 * size, 0.05 * size)),
+        "capsule": Capsule((cx - 0.05 * size, cy - 0.02 * size), (cx + 0.2 * size, cy + 0.06 * size),
+                           0.025 * size),
     }
     if spec.lower().endswith(".png"):
         if not Path(spec).is_file():

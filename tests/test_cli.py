@@ -91,3 +91,33 @@ def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
     with pytest.raises(OSError):
         output.save_image(np.zeros((4, 4, 3), np.uint8), tmp_path / "x.png")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_collision_run_saves_all_quantities_and_plan_lists_its_passes(tmp_path, capsys):
+    out, state = tmp_path / "c.png", tmp_path / "c.npz"
+    assert main(["run", "collision", "--particles", "2048", "--size", "64x64", "--steps", "20",
+                 "--shape", "circle+box", "--out", str(out), "--save-state", str(state)]) == 0
+    saved = np.load(state)
+    assert sorted(saved.files) == ["life", "position", "velocity"]
+    assert all(saved[k].shape == (2048, 2) for k in saved.files)
+    assert main(["plan", "collision", "--particles", "2048", "--shape", "capsule"]) == 0
+    text = capsys.readouterr().out
+    for line in ("1. velocity: collision.frag writes velocity",
+                 "2. position: collision.frag writes position",
+                 "3. life: collision.frag writes life; reads life (last step)",
+                 "collision field: 256x256 cells", "field memory by format"):
+        assert line in text, text
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--shape", "hexagon"], "shape must be circle, box, capsule"),
+    (["--lifetime", "-1", "2"], "lifetime must be positive"),
+    (["--field-resolution", "4"], "field-resolution must be in [8, 4096]"),
+    (["--dt", "0"], "dt must be in"),
+])
+def test_collision_bad_input(tmp_path, capsys, arguments, message):
+    out = tmp_path / "x.png"
+    assert main(["run", "collision", "--particles", "64", "--size", "32x32", *arguments,
+                 "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

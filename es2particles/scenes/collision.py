@@ -41,10 +41,10 @@ class Physics:
     sliding: float = 0.5  # the particle's mass, clamped to [0, 1]
     bounce: float = 0.6
     emit: bool = True
-    emitter: tuple = (-0.75, -0.85)
-    direction: float = np.radians(62)
-    spread: float = 0.35
-    speed: tuple = (2.3, 2.9)
+    emitter: tuple = (-0.7, -0.95)
+    direction: float = np.radians(68)
+    spread: float = 0.3
+    speed: tuple = (2.6, 3.2)
     lifetime: tuple = (3.0, 5.0)
     max_speed: float = 8.0  # velocity range is [-max_speed, max_speed]
     max_age: float = 16.0  # life range: age in [-max_age, max_age], lifetime in [0, max_age]
@@ -114,7 +114,7 @@ class Collision(Scene):
         add("--sliding", type=float, default=0.5, help="sliding factor (mass) in [0, 1]")
         add("--bounce", type=float, default=0.6, help="bouncing resistance r (default 0.6)")
         add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"))
-        add("--speed", type=float, nargs=2, default=(2.3, 2.9), metavar=("MIN", "MAX"))
+        add("--speed", type=float, nargs=2, default=(2.6, 3.2), metavar=("MIN", "MAX"))
 
     @classmethod
     def from_args(cls, args):

@@ -51,8 +51,12 @@ def _add_common_arguments(parser, running):
     add("--particles", type=int, default=None,
         help="particle count (default: 2^20 for dejong, 2^17 for collision)")
     add("--size", default="1024x1024", help="image size WxH (default 1024x1024)")
-    add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f"],
-        help="state storage format (default rgba8: 16-bit packed)")
+    add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f", "auto"],
+        help="state storage format (default rgba8: 16-bit packed; auto: the most precise one "
+             "the context can render to)")
+    add("--rounding", default=None, choices=["nearest", "dither"],
+        help="rounding of packed state (default: dither for stateful de Jong and collision, "
+             "nearest for reseeded de Jong)")
     add("--gradient", default="inferno",
         help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
              "path, or 'none' to switch the gradient map off")
@@ -85,7 +89,8 @@ def _pipeline(ctx, args):
     particles = scene.default_particles if args.particles is None else args.particles
     point_size = scene.default_point_size if args.point_size is None else args.point_size
     return scene, Pipeline(ctx, scene, particles, args.size, args.format, point_size,
-                           args.intensity, args.exposure, gradient, bloom, args.seed)
+                           args.intensity, args.exposure, gradient, bloom, args.seed,
+                           args.rounding)
 
 
 def _plan(args):

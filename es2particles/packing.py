@@ -39,6 +39,15 @@ def pack16(x, store="round"):
     return np.stack([store_unorm8(high, store), store_unorm8(low, store)], axis=-1)
 
 
+def pack16_dither(x, u):
+    """Bytes (..., 2) of ``pack16_dither``: stochastic rounding with noise ``u`` in [0, 1)."""
+    code = np.minimum(np.floor(clamp_unit(x) * F32(CODES_PER_UNIT) + np.asarray(u, F32)),
+                      F32(CODES_PER_UNIT))
+    high = np.floor((code + F32(0.5)) * F32(1 / 255))
+    return np.stack([store_unorm8(high * F32(1 / 255)),
+                     store_unorm8((code - high * F32(255)) * F32(1 / 255))], axis=-1)
+
+
 def unpack16(bytes2):
     """Decode bytes (..., 2) = (high, low) to float32 in [0, 1], as ``unpack16`` in GLSL does.
 

@@ -47,20 +47,23 @@ class Pipeline:
         Bloom settings, or None to switch bloom off.
     seed : int
         Seed of the starting state: the same arguments give the same image on the same driver.
+    rounding : str, optional
+        ``nearest`` or ``dither`` for packed state; default: the scene's choice.
     """
 
     def __init__(self, ctx, scene, particles=2 ** 20, size=(1024, 1024), fmt="rgba8",
                  point_size=1.0, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
-                 seed=0):
+                 seed=0, rounding=None):
         self.ctx, self.scene = ctx, scene
         self.size = parse_size(size, ctx.caps.max_texture_size)
         seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
         self.sim = self.renderer = self.post = None
         try:
             self.sim = Simulation(ctx, scene.graph(), particles, outputs=scene.outputs, fmt=fmt,
-                                  defines=scene.defines())
-            self.renderer = PointRenderer(ctx, self.sim.layout, self.size, scene.view, fmt,
-                                          point_size, intensity, scene.fade_by_life)
+                                  defines=scene.defines(),
+                                  rounding=rounding or scene.default_rounding)
+            self.renderer = PointRenderer(ctx, self.sim.layout, self.size, scene.view,
+                                          self.sim.fmt, point_size, intensity, scene.fade_by_life)
             self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
                                   bloom, scene.background())
         except Exception:
@@ -95,7 +98,8 @@ class Pipeline:
         sim, r = self.sim, self.renderer
         lines = [f"scene: {self.scene.name}; {sim.count} particles in {sim.layout.width}x"
                  f"{sim.layout.height} texels ({sim.layout.spare} spare, never drawn); "
-                 f"state format {sim.fmt}",
+                 f"state format {sim.format_note}"
+                 + (f", {sim.rounding} rounding" if sim.fmt == "rgba8" else ""),
                  "simulation step:"]
         lines += ["  " + line for line in str(sim.plan).splitlines()]
         lines += ["  " + line for line in self.scene.describe()]

@@ -13,6 +13,21 @@ from .state import Layout, StateBuffer
 
 FORMAT_DEFINES = {"rgba8": {"STATE_RGBA8": None}, "rgba16f": {"STATE_FLOAT": None},
                   "rgba32f": {"STATE_FLOAT": None}}
+ROUNDINGS = ("nearest", "dither")
+AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
+
+
+def resolve_format(ctx, fmt):
+    """The storage format to use and a note saying why: ``auto`` takes the most precise format
+    the context can render to; a named one must be renderable (else CapabilityError)."""
+    if fmt == "auto":
+        for candidate in AUTO_ORDER:
+            if ctx.caps.renderable.get(candidate):
+                return candidate, f"{candidate} (auto: the most precise renderable format)"
+    if fmt not in FORMAT_DEFINES:
+        raise ParameterError(f"format must be one of {sorted(FORMAT_DEFINES)} or 'auto', got {fmt!r}")
+    ctx.require_format(fmt)
+    return fmt, fmt
 
 
 class _BoundPass:
@@ -91,18 +106,24 @@ class Simulation:
     outputs : list of str, optional
         Quantities wanted; passes and textures they do not need are left out (see ``plan``).
     fmt : str
-        Storage format: ``rgba8`` (16-bit packed, default), ``rgba16f`` or ``rgba32f``.
+        Storage format: ``rgba8`` (16-bit packed, default), ``rgba16f``, ``rgba32f``, or ``auto``
+        (the most precise one the context can render to; ``format_note`` says which).
     defines : mapping, optional
         ``#define`` lines for every pass.
+    rounding : str
+        How the packed format rounds on write: ``nearest``, or ``dither`` (stochastic, from a hash
+        of particle and step: deterministic, unbiased, so sub-code changes are not lost).
     """
 
-    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", defines=None):
-        if fmt not in FORMAT_DEFINES:
-            raise ParameterError(f"format must be one of {sorted(FORMAT_DEFINES)}, got {fmt!r}")
-        self.ctx, self.fmt = ctx, fmt
+    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", defines=None,
+                 rounding="nearest"):
+        if rounding not in ROUNDINGS:
+            raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
+        self.ctx, self.rounding = ctx, rounding
         self.plan = graph.plan(outputs)
         self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
-        ctx.require_format(fmt)
+        self.fmt, self.format_note = resolve_format(ctx, fmt)
+        fmt = self.fmt
         self.steps_done = 0
         self.attached = []
         self.buffers = {}
@@ -112,6 +133,8 @@ class Simulation:
                 self.buffers[name] = StateBuffer(ctx, self.plan.quantities[name], self.layout,
                                                  fmt, n)
             all_defines = {**FORMAT_DEFINES[fmt], **(defines or {})}
+            if rounding == "dither" and fmt == "rgba8":
+                all_defines["STATE_DITHER"] = None
             self.passes = [_BoundPass(ctx, p, self.buffers, self.layout, all_defines)
                            for p in self.plan.passes]
         except Exception:
@@ -159,6 +182,13 @@ class Simulation:
         for name, value in values.items():
             for bound in self.passes:
                 bound.set_uniform(name, value)
+
+    def non_finite(self, name):
+        """Particles whose ``name`` holds NaN or Inf (only float formats can store them)."""
+        values = self._buffer(name).read_texels()[:, :2]
+        if values.dtype == np.uint8:
+            return 0
+        return int(np.count_nonzero(~np.isfinite(values.astype(np.float64)).all(axis=1)))
 
     def clamped(self, name):
         """Particles whose ``name`` sits on an edge of its range, per component (N,) x 2: how

@@ -134,6 +134,13 @@ class StateBuffer:
         full[: self.layout.count] = texels
         self.front.write(full.astype(READ_DTYPES[self.fmt]).tobytes())
 
+    def write_texels(self, texels):
+        """Write raw texel contents (count, 4) into the front texture, bypassing the encoder:
+        how the stability suite injects NaN and Inf into float state."""
+        full = np.zeros((self.layout.width * self.layout.height, 4), dtype=READ_DTYPES[self.fmt])
+        full[: self.layout.count] = texels
+        self.front.write(full.tobytes())
+
     def read_texels(self):
         """Raw texel contents (count, 4) of the front texture."""
         raw = np.frombuffer(self.front.read(), dtype=READ_DTYPES[self.fmt])

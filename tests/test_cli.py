@@ -104,7 +104,7 @@ def test_collision_run_saves_all_quantities_and_plan_lists_its_passes(tmp_path, 
     text = capsys.readouterr().out
     for line in ("1. velocity: collision.frag writes velocity",
                  "2. position: collision.frag writes position",
-                 "3. life: collision.frag writes life; reads life (last step)",
+                 "3. life: collision.frag writes life; reads position (last step)",
                  "collision field: 256x256 cells", "field memory by format"):
         assert line in text, text
 

@@ -13,6 +13,7 @@ class Scene:
     default_steps = 1
     default_particles = 2 ** 20
     default_point_size = 1.0
+    default_rounding = "nearest"
 
     @classmethod
     def add_arguments(cls, parser):

@@ -68,9 +68,25 @@ class Physics:
             for v in value:
                 check_range(name, v, -1e4, 1e4)
 
+    def fixed_substeps(self, field):
+        """0 (each particle picks its sub-step count from its speed), or one count for all.
+
+        With gravity alone, semi-implicit Euler loses g^2 h^2 / 2 of energy per sub-step whatever
+        h is, so each particle may choose its count from its own speed. With a spring, a count
+        that follows the phase (few sub-steps at the centre, many at the turning points) pumps
+        energy: measured, 4.3x in 100 steps at omega dt = 10. So a spring fixes the count from
+        the fastest possible particle, and omega h <= 0.5 keeps symplectic Euler's energy within
+        a few percent. The fastest possible particle is one at the velocity range's edge.
+        """
+        if self.spring[2] == 0:
+            return 0.0
+        omega = np.sqrt(self.spring[2])
+        return float(np.ceil(max(self.max_speed * self.dt / (0.5 * field.cell), 2 * omega * self.dt)))
+
     def uniforms(self, field):
         x0, y0, x1, y1 = field.rect
         return {
+            "u_fixed_substeps": self.fixed_substeps(field),
             "u_dt": float(self.dt), "u_gravity": tuple(map(float, self.gravity)),
             "u_drag": float(self.drag), "u_spring": tuple(map(float, self.spring)),
             "u_sliding": float(self.sliding), "u_bounce": float(self.bounce),
@@ -92,6 +108,7 @@ class Collision(Scene):
     fade_by_life = True
     default_particles = 2 ** 17  # the sub-stepped passes cost ~20x de Jong's per particle
     default_point_size = 2.0
+    default_rounding = "dither"  # a slow particle's sub-code moves are kept on average
 
     def __init__(self, shape="circle", physics=Physics(), field_resolution=(256, 256), field=None):
         self.physics = physics
@@ -137,7 +154,7 @@ class Collision(Scene):
               defines={"WRITE_VELOCITY": None})
         g.add("position", "collision.frag", writes="position", reads=state,
               defines={"WRITE_POSITION": None})
-        g.add("life", "collision.frag", writes="life", reads=("life",),
+        g.add("life", "collision.frag", writes="life", reads=state,
               defines={"WRITE_LIFE": None})
         return g
 
@@ -231,7 +248,8 @@ def collide(x, v, a, field, p):
 def integrate(x, v, field, p):
     a0 = acceleration(x, p)
     reach = (np.hypot(v[:, 0], v[:, 1]) + np.hypot(a0[:, 0], a0[:, 1]) * p.dt) * p.dt
-    n = np.maximum(np.ceil(reach / (0.5 * field.cell)), np.ceil(np.sqrt(p.spring[2]) * p.dt))
+    fixed = p.fixed_substeps(field)
+    n = np.full(len(x), fixed) if fixed > 0 else np.ceil(reach / (0.5 * field.cell))
     n = np.clip(n, 1, MAX_SUBSTEPS)
     h = p.dt / n
     kh = p.drag * h

@@ -1,6 +1,8 @@
 #version 100
 // The collision scene's passes: one file, three passes. Each runs particle_step() on last step's
-// state and writes one part of the result: WRITE_VELOCITY, WRITE_POSITION or WRITE_LIFE.
+// state and writes one part of the result: WRITE_VELOCITY, WRITE_POSITION or WRITE_LIFE. The life
+// pass skips the integration but reads all three quantities, to reset a non-finite particle
+// exactly when the other two passes do.
 precision highp float;
 precision highp sampler2D;
 #include "lib/particle.glsl"
@@ -9,22 +11,19 @@ varying vec2 v_uv;
 uniform sampler2D u_life;
 uniform vec4 u_life_range;
 uniform vec4 u_out_range;
-#ifndef WRITE_LIFE
 uniform sampler2D u_position;
 uniform vec4 u_position_range;
 uniform sampler2D u_velocity;
 uniform vec4 u_velocity_range;
-#endif
 
 void main()
 {
-    vec2 life = state_read(u_life, v_uv, u_life_range);
+    Particle p = particle_step(state_read(u_position, v_uv, u_position_range),
+                               state_read(u_velocity, v_uv, u_velocity_range),
+                               state_read(u_life, v_uv, u_life_range), v_uv);
 #ifdef WRITE_LIFE
-    Particle p = particle_step(vec2(0.0), vec2(0.0), life, v_uv);
     gl_FragColor = state_encode(p.life, u_out_range);
 #else
-    Particle p = particle_step(state_read(u_position, v_uv, u_position_range),
-                               state_read(u_velocity, v_uv, u_velocity_range), life, v_uv);
 #ifdef WRITE_POSITION
     gl_FragColor = state_encode(p.x, u_out_range);
 #else

@@ -26,10 +26,15 @@ vec2 dejong(vec2 p, vec4 k)
 
 void main()
 {
+    vec2 grid = u_out_range.xy + v_uv * u_out_range.zw;
 #ifdef RESEED
-    vec2 p = u_out_range.xy + v_uv * u_out_range.zw;
+    vec2 p = grid;
 #else
     vec2 p = state_read(u_position, v_uv, u_position_range);
+    // A non-finite position (only float formats can hold one) restarts from the grid.
+    if (!(abs(p.x) < 1e30 && abs(p.y) < 1e30)) {
+        p = grid;
+    }
 #endif
     for (int i = 0; i < ITERATIONS; ++i) {
         p = dejong(p, u_coefficients);

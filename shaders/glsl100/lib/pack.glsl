@@ -36,6 +36,15 @@ vec2 pack16(float x)
     return vec2(high, code - high * 255.0) * (1.0 / 255.0);
 }
 
+vec2 pack16_dither(float x, float u)
+{
+    // Stochastic rounding: with u uniform in [0,1), the expected code is exactly 65025x, so a
+    // change smaller than a code still moves the value on average instead of being lost.
+    float code = min(floor(clamp_unit(x) * 65025.0 + u), 65025.0);
+    float high = floor((code + 0.5) * (1.0 / 255.0));
+    return vec2(high, code - high * 255.0) * (1.0 / 255.0);
+}
+
 float unpack16(vec2 channels)
 {
     vec2 bytes = floor(channels * 255.0 + 0.5);

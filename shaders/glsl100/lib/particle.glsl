@@ -9,7 +9,6 @@
 #define MAX_SUBSTEPS 256
 #endif
 
-uniform float u_step;
 uniform vec2 u_state_size;
 uniform float u_dt;
 uniform vec2 u_gravity;
@@ -18,6 +17,7 @@ uniform vec3 u_spring;       // centre.xy and omega^2 of a pull towards a point
 uniform float u_sliding;     // s: 1 bounces along the normal, 0 slides along the surface
 uniform float u_bounce;      // r: bouncing resistance, the speed kept on contact
 uniform float u_cell;        // field cell size: a sub-step moves at most half of it
+uniform float u_fixed_substeps;  // 0: each particle picks its count; else this count for all
 uniform sampler2D u_field;   // RG: packed distance, BA: normal * 0.5 + 0.5
 uniform vec4 u_field_rect;   // x0, y0, width, height of the scene rectangle
 uniform vec2 u_field_cells;
@@ -102,9 +102,9 @@ void collide(inout vec2 x, inout vec2 v, vec2 a)
 void integrate(inout vec2 x, inout vec2 v)
 {
     // Sub-steps: each moves at most half a field cell (no tunnelling through a wall one cell
-    // thick) and keeps omega h <= 1 for the spring (bounded).
+    // thick). A spring needs one fixed count for every step (see Physics.fixed_substeps).
     float reach = (length(v) + length(acceleration(x)) * u_dt) * u_dt;
-    float n = max(ceil(reach / (0.5 * u_cell)), ceil(sqrt(u_spring.z) * u_dt));
+    float n = (u_fixed_substeps > 0.0) ? u_fixed_substeps : ceil(reach / (0.5 * u_cell));
     n = clamp(n, 1.0, float(MAX_SUBSTEPS));
     float h = u_dt / n;
     float kh = u_drag * h;
@@ -137,8 +137,27 @@ Particle spawn(vec2 uv)
     return p;
 }
 
+bool finite(vec2 a)
+{
+    // False for NaN (every comparison with NaN fails) and for +-Inf.
+    return abs(a.x) < 1e30 && abs(a.y) < 1e30;
+}
+
 Particle particle_step(vec2 x, vec2 v, vec2 life, vec2 uv)
 {
+    if (!(finite(x) && finite(v) && finite(life))) {
+        // Non-finite state (only float formats can hold it) is contained here: the particle is
+        // re-emitted, or parked dead without an emitter; it never reaches a neighbour or the
+        // image. Every pass sees the same inputs, so all three agree.
+        if (u_emit > 0.5) {
+            return spawn(uv);
+        }
+        Particle parked;
+        parked.x = u_emitter.xy;
+        parked.v = vec2(0.0);
+        parked.life = vec2(0.0);  // age >= lifetime: dead, not drawn, not re-emitted
+        return parked;
+    }
     Particle p;
     p.x = x;
     p.v = v;

@@ -17,6 +17,11 @@ def main(argv=None):
     info = commands.add_parser("info", help="print the GL context's capabilities")
     info.set_defaults(handler=_info)
     _add_scene_commands(commands)
+    report = commands.add_parser("report", help="error against run time, and the stability suite")
+    report.add_argument("--quick", action="store_true",
+                        help="a small sweep (about a minute without a GPU)")
+    report.add_argument("--out", default="out/report", help="folder for REPORT.md and charts")
+    report.set_defaults(handler=_report)
     args = parser.parse_args(argv)
     try:
         return args.handler(args) or 0
@@ -30,6 +35,23 @@ def _info(args):
 
     with open_context() as ctx:
         print(ctx.caps)
+
+
+def _report(args):
+    from pathlib import Path
+
+    from .context import open_context
+    from .errors import ParameterError
+    from .report import run
+
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"--out {args.out!r} is a file; it must be a folder")
+    if not out.parent.exists():
+        raise ParameterError(f"--out: folder {str(out.parent)!r} does not exist")
+    with open_context() as ctx:
+        path = run(ctx, out, quick=args.quick)
+    print(f"wrote {path}")
 
 
 def _add_scene_commands(commands):

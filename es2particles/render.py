@@ -76,8 +76,9 @@ class PointRenderer:
         self.program["u_view"].value = (x0, y0, x1 - x0, y1 - y0)
         self.program["u_point_size"].value = self.point_size
         self.program["u_colour"].value = (self.intensity * self.scale,) * 4
-        self._position_range = self.program["u_position_range"]
-        self._life_range = self.program["u_life_range"] if fade_by_life else None
+        # Float state formats do not decode through the range: the driver drops the uniform.
+        self._position_range = self.program.get("u_position_range", None)
+        self._life_range = self.program.get("u_life_range", None) if fade_by_life else None
 
     @property
     def mean_density(self):
@@ -92,10 +93,12 @@ class PointRenderer:
         mgl.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         mgl.blend_func = moderngl.ONE, moderngl.ONE
         position.front.use(0)
-        self._position_range.value = tuple(position.quantity.range_vec4)
+        if self._position_range is not None:
+            self._position_range.value = tuple(position.quantity.range_vec4)
         if self.fade_by_life:
             life.front.use(1)
-            self._life_range.value = tuple(life.quantity.range_vec4)
+            if self._life_range is not None:
+                self._life_range.value = tuple(life.quantity.range_vec4)
         self.vao.render(moderngl.POINTS, vertices=self.layout.count)
         mgl.disable(moderngl.BLEND)
         return self.target

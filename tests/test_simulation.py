@@ -11,13 +11,13 @@ WORLD_STEP = 1 / 65025  # grid step of a quantity with range [0, 1]
 
 def counter_graph(delta_reads_new=False):
     g = PassGraph()
-    g.quantity("value", 0, 1)
+    g.quantity("position", 0, 1)
     g.quantity("copy_new", 0, 1)
     g.quantity("copy_last", 0, 1)
-    g.add("add", shader("add_constant.frag"), writes="value", reads=["value"],
+    g.add("add", "examples/drift.frag", writes="position", reads=["position"],
           uniforms={"u_delta": (0.0, 0.0)})
-    g.add("copy_this_step", shader("copy.frag"), writes="copy_new", reads_new=["value"])
-    g.add("copy_last_step", shader("copy.frag"), writes="copy_last", reads=["value"])
+    g.add("copy_this_step", shader("copy.frag"), writes="copy_new", reads_new=["position"])
+    g.add("copy_last_step", shader("copy.frag"), writes="copy_last", reads=["position"])
     return g
 
 
@@ -25,13 +25,13 @@ def counter_graph(delta_reads_new=False):
 def test_ping_pong_adds_a_constant_each_step(gl, fmt):
     n, steps = 1000, 7
     delta = (300 * WORLD_STEP, 1000 * WORLD_STEP)  # whole codes: exact in the packed format
-    with Simulation(gl, counter_graph(), n, outputs=["value"], fmt=fmt) as sim:
+    with Simulation(gl, counter_graph(), n, outputs=["position"], fmt=fmt) as sim:
         start = np.stack([np.linspace(0, 0.5, n), np.full(n, 0.25)], axis=1)
         start = np.round(start * 65025) / 65025
-        sim.upload("value", start)
+        sim.upload("position", start)
         sim.set_uniform("u_delta", delta)
         sim.run(steps)
-        got = sim.download("value")
+        got = sim.download("position")
     expected = start + steps * np.array(delta)
     tolerance = {"rgba8": 1e-7, "rgba16f": steps * 2 ** -11, "rgba32f": 1e-6}[fmt]
     error = np.abs(got - expected).max()
@@ -43,10 +43,10 @@ def test_reads_see_this_steps_or_last_steps_value(gl):
     n = 64
     delta = (65 * WORLD_STEP, 0.0)
     with Simulation(gl, counter_graph(), n) as sim:
-        sim.upload("value", np.full((n, 2), 0.5))
+        sim.upload("position", np.full((n, 2), 0.5))
         sim.set_uniform("u_delta", delta)
         sim.run(3)
-        value, new, last = (sim.download(q) for q in ("value", "copy_new", "copy_last"))
+        value, new, last = (sim.download(q) for q in ("position", "copy_new", "copy_last"))
     assert np.allclose(value[:, 0], 0.5 + 3 * delta[0], atol=WORLD_STEP / 2)
     assert np.array_equal(new, value), "reads_new must see this step's value"
     assert np.allclose(last[:, 0], 0.5 + 2 * delta[0], atol=WORLD_STEP / 2), \
@@ -56,11 +56,11 @@ def test_reads_see_this_steps_or_last_steps_value(gl):
 def test_pruned_passes_are_never_compiled_or_run(gl):
     g = counter_graph()
     g.quantity("broken", 0, 1)
-    g.add("never", shader("broken.frag"), writes="broken", reads=["value"])
+    g.add("never", shader("broken.frag"), writes="broken", reads=["position"])
     # The broken shader would raise if it were compiled; pruning must leave it out entirely.
-    with Simulation(gl, g, 16, outputs=["value"]) as sim:
+    with Simulation(gl, g, 16, outputs=["position"]) as sim:
         assert [p.spec.name for p in sim.passes] == ["add"]
-        assert set(sim.buffers) == {"value"}
+        assert set(sim.buffers) == {"position"}
         sim.run(2)
 
 
@@ -98,11 +98,11 @@ def test_release_frees_every_gl_object(gl):
 
 def test_non_square_and_tiny_counts(gl):
     for n in (1, 2, 1000, 4099):
-        with Simulation(gl, counter_graph(), n, outputs=["value"]) as sim:
+        with Simulation(gl, counter_graph(), n, outputs=["position"]) as sim:
             assert sim.layout.width * sim.layout.height >= n
             values = np.random.default_rng(n).random((n, 2))
-            sim.upload("value", values)
-            assert np.abs(sim.download("value") - values).max() <= WORLD_STEP / 2 + 1e-7
+            sim.upload("position", values)
+            assert np.abs(sim.download("position") - values).max() <= WORLD_STEP / 2 + 1e-7
 
 
 @pytest.mark.parametrize("count", [0, -5, 2.5, "many"])
@@ -118,11 +118,11 @@ def test_count_beyond_the_texture_limit_is_a_clear_error(gl):
 
 
 def test_unknown_quantity_and_format_are_clear_errors(gl):
-    with Simulation(gl, counter_graph(), 4, outputs=["value"]) as sim:
+    with Simulation(gl, counter_graph(), 4, outputs=["position"]) as sim:
         with pytest.raises(ParameterError, match="quantity 'velocity' is not in this"):
             sim.download("velocity")
         with pytest.raises(ParameterError, match="values must have shape"):
-            sim.upload("value", np.zeros((3, 2)))
+            sim.upload("position", np.zeros((3, 2)))
         with pytest.raises(ParameterError, match="no pass of this plan has a uniform"):
             sim.set_uniform("u_nothing", 1.0)
     with pytest.raises(ParameterError, match="format must be one of"):

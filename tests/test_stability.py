@@ -184,17 +184,17 @@ def test_a_large_non_power_of_two_count_runs(gl):
 
 def test_tiny_increments_are_kept_on_average_with_dither(gl):
     g = PassGraph()
-    g.quantity("value", 0, 1)
-    g.add("add", shader("add_constant.frag"), writes="value", reads=["value"],
+    g.quantity("position", 0, 1)
+    g.add("add", "examples/drift.frag", writes="position", reads=["position"],
           uniforms={"u_delta": (0.3 / 65025, 0.0)})
     n, steps = 4096, 200
     moved = {}
     for rounding in ("nearest", "dither"):
         with Simulation(gl, g, n, rounding=rounding) as sim:
-            sim.upload("value", np.full((n, 2), 0.5))
-            start = sim.download("value")[:, 0]
+            sim.upload("position", np.full((n, 2), 0.5))
+            start = sim.download("position")[:, 0]
             sim.run(steps)
-            moved[rounding] = (sim.download("value")[:, 0] - start) * 65025
+            moved[rounding] = (sim.download("position")[:, 0] - start) * 65025
     expected = 0.3 * steps
     print(f"0.3 code per step for {steps} steps: nearest moved {moved['nearest'].mean():.2f} "
           f"codes, dither {moved['dither'].mean():.2f} (expected {expected:.0f})")

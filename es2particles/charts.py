@@ -1,0 +1,73 @@
+"""Charts of the report, with matplotlib (the optional ``report`` extra). Each function writes one
+PNG and returns its path; :func:`available` says whether matplotlib is installed."""
+
+
+def available():
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _figure():
+    import matplotlib
+
+    matplotlib.use("Agg")  # headless
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def work_precision(rows, time_key, error_key, path, title, xlabel, ylabel):
+    """Error (log) against run time (log), one series per format, one point per configuration."""
+    plt = _figure()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=110)
+    for label in sorted({r["series"] for r in rows}):
+        series = sorted((r for r in rows if r["series"] == label), key=lambda r: r[time_key])
+        xs = [r[time_key] for r in series]
+        ys = [max(r[error_key], 1e-12) for r in series]
+        ax.loglog(xs, ys, "o-", label=label)
+        for r in series:
+            ax.annotate(f"2^{r['N'].bit_length() - 1}", (r[time_key], max(r[error_key], 1e-12)),
+                        fontsize=7, xytext=(3, 3), textcoords="offset points")
+    ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def error_against_dt(rows, path, fitted):
+    plt = _figure()
+    fig, ax = plt.subplots(figsize=(6.4, 4.4), dpi=110)
+    for label in sorted({r["series"] for r in rows}):
+        series = sorted((r for r in rows if r["series"] == label), key=lambda r: r["dt"])
+        ax.loglog([r["dt"] for r in series], [max(r["error"], 1e-12) for r in series], "o-",
+                  label=label)
+    ax.set(xlabel="time step dt (s)", ylabel="max position error at the horizon",
+           title=f"Collision integrator, smooth case: error against dt (fitted order {fitted:.2f})")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def stiff(curves, path):
+    """Side by side: default integration and explicit Euler on the stiff cases."""
+    plt = _figure()
+    fig, axes = plt.subplots(1, len(curves), figsize=(4.2 * len(curves), 3.8), dpi=110)
+    for ax, (title, steps, default, euler, ylabel) in zip(axes, curves):
+        ax.semilogy(steps, default, "o-", label="default (as run on the GPU)")
+        ax.semilogy(steps, euler, "s--", label="explicit Euler (numpy)")
+        ax.set(title=title, xlabel="step", ylabel=ylabel)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

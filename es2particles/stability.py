@@ -1,0 +1,213 @@
+"""The stability suite as the report runs it: each case measures a figure on the GPU, compares it
+with a bound from float64 numpy, and gives one line: case, measured, bound, pass or fail.
+(tests/test_stability.py asserts the same cases on their own.)
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .field import Box, CollisionField
+from .graph import PassGraph
+from .measure import density_distance
+from .scenes.collision import RECT, Collision, Physics
+from .scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
+from .simulation import Simulation
+
+EMPTY_FIELD = None
+
+
+@dataclass
+class Case:
+    name: str
+    measured: str
+    bound: str
+    passed: bool
+
+    def row(self):
+        return (self.name, self.measured, self.bound, "pass" if self.passed else "FAIL")
+
+
+def _free(**changes):
+    global EMPTY_FIELD
+    if EMPTY_FIELD is None:
+        EMPTY_FIELD = CollisionField(RECT, [])
+    settings = {"emit": False, "gravity": (0.0, 0.0), "drag": 0.0, **changes}
+    return Collision(physics=Physics(**settings), field=EMPTY_FIELD)
+
+
+def _particles(ctx, scene, x, v, steps, fmt="rgba8", rounding="nearest"):
+    n = len(x)
+    out = []
+    with Simulation(ctx, scene.graph(), n, fmt=fmt, rounding=rounding) as sim:
+        scene.initialise(sim, np.random.default_rng(0))
+        sim.upload("position", x)
+        sim.upload("velocity", v)
+        sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.physics.max_age)], 1))
+        for _ in range(steps):
+            sim.step()
+            out.append((sim.download("position"), sim.download("velocity")))
+    return out
+
+
+def stiff_drag(ctx, k_dt):
+    dt = 1 / 60
+    history = _particles(ctx, _free(drag=k_dt / dt, dt=dt), np.zeros((8, 2)),
+                         np.array([[4.0, -3.0]] * 8), 5)
+    euler = abs(1 - k_dt) ** 5
+    last = np.hypot(*history[-1][1].T).max()
+    return Case(f"stiff drag k dt = {k_dt:g}: speed after 5 steps (explicit Euler x{euler:.3g})",
+                f"{last:.3g}", f"<= {5 * np.exp(-5 * k_dt) + 2 * 8 / 65025:.3g} (exact decay)",
+                bool(last <= 5 * np.exp(-5 * k_dt) + 2 * 8 / 65025))
+
+
+def stiff_spring(ctx, omega_dt, steps=120):
+    dt = 1 / 60
+    omega = omega_dt / dt
+    amplitude = min(0.5, 4.0 / omega)
+    history = _particles(ctx, _free(spring=(0.0, 0.0, omega ** 2), dt=dt),
+                         np.array([[amplitude, 0.0]] * 4), np.zeros((4, 2)), steps)
+    e0 = 0.5 * omega ** 2 * amplitude ** 2
+    ratio = max(np.max(0.5 * np.sum(v * v, 1) + 0.5 * omega ** 2 * np.sum(x * x, 1))
+                for x, v in history) / e0
+    euler = (1 + omega_dt ** 2) ** steps  # explicit Euler's energy factor after `steps`
+    return Case(f"stiff spring omega dt = {omega_dt:g}: max energy / start over {steps} steps "
+                f"(explicit Euler x{euler:.3g})", f"{ratio:.3f}", "<= 1.4", bool(ratio <= 1.4))
+
+
+def thin_wall(ctx):
+    cell = 2 / 256
+    field = CollisionField(RECT, [Box((0.0, 0.0), (0.75 * cell, 1.0))], resolution=(256, 256))
+    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=0.05,
+                                      bounce=1.0), field=field)
+    rng = np.random.default_rng(4)
+    n = 4096
+    x = np.stack([rng.uniform(-0.9, -0.1, n), rng.uniform(-0.8, 0.8, n)], 1)
+    v = np.stack([rng.uniform(3, 7.9, n), rng.uniform(-1, 1, n)], 1)
+    crossed = max(np.count_nonzero(p[:, 0] > 0) for p, _ in _particles(ctx, scene, x, v, 20))
+    return Case("large time step (dt 0.05, up to 50 cells a step) against a wall 1.5 cells thick",
+                f"{crossed} crossed", "0", crossed == 0)
+
+
+def range_limits(ctx):
+    scene = Collision(physics=Physics(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
+                                      speed=(0.5, 1.0)), field=_free().field)
+    x = np.array([[1.0, 1.0], [0.5, 0.9], [-1.0, 1.0]])
+    v = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 0.0]])
+    with Simulation(ctx, scene.graph(), 3) as sim:
+        scene.initialise(sim, np.random.default_rng(0))
+        sim.upload("position", x)
+        sim.upload("velocity", v)
+        sim.upload("life", np.stack([np.zeros(3), np.full(3, 10.0)], 1))
+        sim.run(3)
+        vel, pos = sim.download("velocity"), sim.download("position")
+        clamped = sim.clamped("velocity")
+    # The particle at x = 1 slides down the wall (the response may push it a little inwards);
+    # what must not happen is a wrap to the other edge.
+    ok = bool(np.all(vel[:, 1] == -2.0) and vel[1, 0] > 0 and pos[0, 0] > 0.9)
+    return Case("range limits: fall past the velocity range; +x beyond it; x at the top edge",
+                f"vy {vel[:, 1].tolist()}, vx {vel[1, 0]:g}, x {pos[0, 0]:g}, {clamped[1]} clamped",
+                "vy = -2 (clamped, counted), vx > 0 and x > 0.9 (no wrap)", ok)
+
+
+def non_finite(ctx, fmt):
+    scene = Collision("circle", Physics(lifetime=(1.0, 2.0)))
+    with Simulation(ctx, scene.graph(), 1024, fmt=fmt) as sim:
+        scene.initialise(sim, np.random.default_rng(1))
+        sim.run(30)
+        for name, value in (("position", np.nan), ("velocity", np.inf), ("life", -np.inf)):
+            texels = sim.buffers[name].read_texels().astype(np.float32).copy()
+            texels[[3, 100, 511], :2] = value
+            sim.buffers[name].write_texels(texels)
+        injected = sim.non_finite("position") + sim.non_finite("velocity")
+        sim.step()
+        left = sum(sim.non_finite(q) for q in ("position", "velocity", "life"))
+    return Case(f"NaN/Inf injected into {fmt} state", f"{injected} injected, {left} after a step",
+                "0 after a step (reset or parked)", left == 0)
+
+
+def dejong_extreme(ctx, coefficients):
+    scene = DeJong(coefficients)
+    with Simulation(ctx, scene.graph(), 4096, defines=scene.defines()) as sim:
+        scene.initialise(sim, np.random.default_rng(2))
+        start = sim.download("position")
+        start[:4] = [[2, 2], [-2, -2], [2, -2], [-2, 2]]
+        sim.upload("position", start)
+        start = sim.download("position")
+        sim.step()
+        got = sim.download("position")
+    error = np.abs(got - np.clip(dejong_map(start, coefficients, 3), -2, 2)).max()
+    a, b, c, d = (abs(k) for k in coefficients)
+    lip = max(a + b, c + d, 1.0)
+    bound = 2 / 65025 + sum(lip ** i for i in range(3)) * 2 * 2.0 ** -20
+    ok = bool(np.all(np.isfinite(got)) and np.abs(got).max() <= 2 and error <= bound)
+    return Case(f"de Jong {coefficients}, from points at +-2: one-step error", f"{error:.3g}",
+                f"<= {bound:.3g}", ok)
+
+
+def sizes(ctx, largest):
+    cases = []
+    limit = ctx.caps.max_texture_size
+    counts = [1, 2 ** 20 - 12345] + ([limit ** 2] if largest else [])
+    for n in counts:
+        scene = DeJong(reseed=True)
+        with Simulation(ctx, scene.graph(), n, defines=scene.defines()) as sim:
+            sim.step()
+            texels = sim.buffers["position"].read_texels()
+            pick = np.random.default_rng(0).choice(n, size=min(n, 10 ** 6), replace=False)
+            from .packing import state_decode
+
+            got = state_decode(texels[pick], sim.buffers["position"].quantity.range_vec4)
+            uv = np.stack([(pick % sim.layout.width + 0.5) / sim.layout.width,
+                           (pick // sim.layout.width + 0.5) / sim.layout.height], 1)
+        exact = np.clip(dejong_map(-2 + 4 * uv, scene.coefficients, 3), -2, 2)
+        error = np.abs(got - exact).max()
+        cases.append(Case(f"{n} particles ({sim.layout.width}x{sim.layout.height} texels), "
+                          "reseeded de Jong step", f"max error {error:.3g}", "<= 2e-4",
+                          bool(error <= 2e-4)))
+    return cases
+
+
+def grid_cycles(ctx, count, steps):
+    """Stateful de Jong on the 16-bit grid: distinct positions and density distance to float64
+    after ``steps`` steps, nearest against dithered rounding."""
+    rng = np.random.default_rng(0)
+    start = rng.uniform(-2, 2, (count, 2))
+    other = np.random.default_rng(1).uniform(-2, 2, (count, 2))
+    reference, noise = start.copy(), other
+    for _ in range(steps):
+        reference = dejong_map(reference, ARTICLE_COEFFICIENTS, 3)
+        noise = dejong_map(noise, ARTICLE_COEFFICIENTS, 3)
+    floor = density_distance(reference, noise)
+    cases, figures = [], {}
+    for rounding in ("nearest", "dither"):
+        scene = DeJong()
+        with Simulation(ctx, scene.graph(), count, defines=scene.defines(), rounding=rounding) as sim:
+            sim.upload("position", start)
+            sim.run(steps)
+            p = sim.download("position")
+        distinct = len(np.unique(p, axis=0)) / count
+        tv = density_distance(p, reference)
+        figures[rounding] = (distinct, tv)
+        cases.append(Case(f"{count} particles, {steps} stateful de Jong steps, {rounding} "
+                          "rounding: distinct positions, 64x64 density distance to float64",
+                          f"{distinct:.1%}, {tv:.3f}", f"noise floor {floor:.3f} (+25%)",
+                          bool(tv <= 1.25 * floor)))
+    return cases, figures, floor
+
+
+def tiny_increments(ctx):
+    g = PassGraph()
+    g.quantity("position", 0, 1)
+    g.add("drift", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms={"u_delta": (0.3 / 65025, 0.0)})
+    moved = {}
+    for rounding in ("nearest", "dither"):
+        with Simulation(ctx, g, 4096, rounding=rounding) as sim:
+            sim.upload("position", np.full((4096, 2), 0.5))
+            start = sim.download("position")[:, 0]
+            sim.run(200)
+            moved[rounding] = float(((sim.download("position")[:, 0] - start) * 65025).mean())
+    return Case("0.3 code per step for 200 steps (expected 60 codes): nearest / dither moved",
+                f"{moved['nearest']:.2f} / {moved['dither']:.2f} codes", "dither within 2% of 60",
+                bool(abs(moved["dither"] - 60) <= 1.2))

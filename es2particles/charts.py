@@ -19,6 +19,16 @@ def _figure():
     return plt
 
 
+def _finish(fig, ax, path, **labels):
+    ax.set(**labels)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    _figure().close(fig)
+    return path
+
+
 def work_precision(rows, time_key, error_key, path, title, xlabel, ylabel):
     """Error (log) against run time (log), one series per format, one point per configuration."""
     plt = _figure()
@@ -31,13 +41,7 @@ def work_precision(rows, time_key, error_key, path, title, xlabel, ylabel):
         for r in series:
             ax.annotate(f"2^{r['N'].bit_length() - 1}", (r[time_key], max(r[error_key], 1e-12)),
                         fontsize=7, xytext=(3, 3), textcoords="offset points")
-    ax.set(xlabel=xlabel, ylabel=ylabel, title=title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, xlabel=xlabel, ylabel=ylabel, title=title)
 
 
 def error_against_dt(rows, path, fitted):
@@ -47,14 +51,10 @@ def error_against_dt(rows, path, fitted):
         series = sorted((r for r in rows if r["series"] == label), key=lambda r: r["dt"])
         ax.loglog([r["dt"] for r in series], [max(r["error"], 1e-12) for r in series], "o-",
                   label=label)
-    ax.set(xlabel="time step dt (s)", ylabel="max position error at the horizon",
-           title=f"Collision integrator, smooth case: error against dt (fitted order {fitted:.2f})")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return path
+    return _finish(fig, ax, path, xlabel="time step dt (s)",
+                   ylabel="max position error at the horizon",
+                   title=f"Collision integrator, smooth case: error against dt "
+                         f"(fitted order {fitted:.2f})")
 
 
 def stiff(curves, path):

@@ -73,12 +73,12 @@ def _stiff_curves(ctx):
     """Speed under drag (k dt = 10) and spring energy (omega dt = 1.5), GPU against explicit
     Euler, for the side-by-side chart."""
     steps = np.arange(1, 11)
-    drag = stability._particles(ctx, stability._free(drag=600.0), np.zeros((2, 2)),
+    drag = stability.run_particles(ctx, stability.free_scene(drag=600.0), np.zeros((2, 2)),
                                 np.array([[4.0, -3.0]] * 2), 10)
     drag_default = [max(np.hypot(*v.T).max(), 1e-9) for _, v in drag]
     drag_euler = 5.0 * np.abs(1 - 10.0) ** steps
     omega = 1.5 * 60
-    spring = stability._particles(ctx, stability._free(spring=(0.0, 0.0, omega ** 2)),
+    spring = stability.run_particles(ctx, stability.free_scene(spring=(0.0, 0.0, omega ** 2)),
                                   np.array([[0.04, 0.0]] * 2), np.zeros((2, 2)), 10)
     e0 = 0.5 * omega ** 2 * 0.04 ** 2
     spring_default = [np.max(0.5 * np.sum(v * v, 1) + 0.5 * omega ** 2 * np.sum(x * x, 1)) / e0

@@ -4,6 +4,7 @@ with a bound from float64 numpy, and gives one line: case, measured, bound, pass
 """
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -14,7 +15,6 @@ from .scenes.collision import RECT, Collision, Physics
 from .scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 from .simulation import Simulation
 
-EMPTY_FIELD = None
 
 
 @dataclass
@@ -28,15 +28,20 @@ class Case:
         return (self.name, self.measured, self.bound, "pass" if self.passed else "FAIL")
 
 
-def _free(**changes):
-    global EMPTY_FIELD
-    if EMPTY_FIELD is None:
-        EMPTY_FIELD = CollisionField(RECT, [])
+def free_scene(**changes):
+    """A collision scene with no objects and no emitter: gravity and drag off unless given."""
     settings = {"emit": False, "gravity": (0.0, 0.0), "drag": 0.0, **changes}
-    return Collision(physics=Physics(**settings), field=EMPTY_FIELD)
+    return Collision(physics=Physics(**settings), field=_empty_field())
 
 
-def _particles(ctx, scene, x, v, steps, fmt="rgba8", rounding="nearest"):
+@lru_cache(maxsize=1)
+def _empty_field():
+    return CollisionField(RECT, [])
+
+
+def run_particles(ctx, scene, x, v, steps, fmt="rgba8", rounding="nearest"):
+    """Run ``steps`` steps from positions x and velocities v (long lives); returns the decoded
+    (position, velocity) after each step."""
     n = len(x)
     out = []
     with Simulation(ctx, scene.graph(), n, fmt=fmt, rounding=rounding) as sim:
@@ -52,7 +57,7 @@ def _particles(ctx, scene, x, v, steps, fmt="rgba8", rounding="nearest"):
 
 def stiff_drag(ctx, k_dt):
     dt = 1 / 60
-    history = _particles(ctx, _free(drag=k_dt / dt, dt=dt), np.zeros((8, 2)),
+    history = run_particles(ctx, free_scene(drag=k_dt / dt, dt=dt), np.zeros((8, 2)),
                          np.array([[4.0, -3.0]] * 8), 5)
     euler = abs(1 - k_dt) ** 5
     last = np.hypot(*history[-1][1].T).max()
@@ -65,7 +70,7 @@ def stiff_spring(ctx, omega_dt, steps=120):
     dt = 1 / 60
     omega = omega_dt / dt
     amplitude = min(0.5, 4.0 / omega)
-    history = _particles(ctx, _free(spring=(0.0, 0.0, omega ** 2), dt=dt),
+    history = run_particles(ctx, free_scene(spring=(0.0, 0.0, omega ** 2), dt=dt),
                          np.array([[amplitude, 0.0]] * 4), np.zeros((4, 2)), steps)
     e0 = 0.5 * omega ** 2 * amplitude ** 2
     ratio = max(np.max(0.5 * np.sum(v * v, 1) + 0.5 * omega ** 2 * np.sum(x * x, 1))
@@ -84,14 +89,14 @@ def thin_wall(ctx):
     n = 4096
     x = np.stack([rng.uniform(-0.9, -0.1, n), rng.uniform(-0.8, 0.8, n)], 1)
     v = np.stack([rng.uniform(3, 7.9, n), rng.uniform(-1, 1, n)], 1)
-    crossed = max(np.count_nonzero(p[:, 0] > 0) for p, _ in _particles(ctx, scene, x, v, 20))
+    crossed = max(np.count_nonzero(p[:, 0] > 0) for p, _ in run_particles(ctx, scene, x, v, 20))
     return Case("large time step (dt 0.05, up to 50 cells a step) against a wall 1.5 cells thick",
                 f"{crossed} crossed", "0", crossed == 0)
 
 
 def range_limits(ctx):
     scene = Collision(physics=Physics(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
-                                      speed=(0.5, 1.0)), field=_free().field)
+                                      speed=(0.5, 1.0)), field=free_scene().field)
     x = np.array([[1.0, 1.0], [0.5, 0.9], [-1.0, 1.0]])
     v = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 0.0]])
     with Simulation(ctx, scene.graph(), 3) as sim:

@@ -1,6 +1,5 @@
 """A tiny binary dilation for the image tests (no scipy dependency)."""
 
-import numpy as np
 
 
 def dilate(mask, radius):

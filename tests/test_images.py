@@ -1,7 +1,6 @@
 """Rendered images: size, not blank, not saturated; what the gradient map and bloom do."""
 
 import numpy as np
-import pytest
 
 from conftest import OUT
 from masks import dilate

@@ -3,33 +3,11 @@
 import numpy as np
 import pytest
 
-from conftest import shader
 from es2particles import PassGraph, Simulation
-from es2particles.field import CollisionField
-from es2particles.scenes.collision import RECT, Collision, Physics
+from es2particles.scenes.collision import Collision, Physics
 from es2particles.scenes.dejong import DeJong, dejong_map
+from es2particles.stability import free_scene, run_particles
 from es2particles.state import Layout
-
-EMPTY = CollisionField(RECT, [])
-
-
-def free_scene(**physics):
-    settings = {"emit": False, "gravity": (0.0, 0.0), "drag": 0.0, **physics}
-    return Collision(physics=Physics(**settings), field=EMPTY)
-
-
-def run_particles(gl, scene, x, v, steps, fmt="rgba8", rounding="nearest", every=None):
-    n = len(x)
-    history = []
-    with Simulation(gl, scene.graph(), n, fmt=fmt, rounding=rounding) as sim:
-        scene.initialise(sim, np.random.default_rng(0))
-        sim.upload("position", x)
-        sim.upload("velocity", v)
-        sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.physics.max_age)], 1))
-        for _ in range(steps):
-            sim.step()
-            history.append((sim.download("position"), sim.download("velocity")))
-    return history
 
 
 @pytest.mark.parametrize("k_dt", [0.1, 1.0, 10.0, 100.0])
@@ -67,7 +45,7 @@ def test_stiff_spring_stays_bounded(gl, omega_dt):
 def test_values_beyond_the_velocity_range_clamp_never_wrap(gl):
     scene = Collision(physics=Physics(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
                                       speed=(0.5, 1.0)),
-                      field=EMPTY)
+                      field=free_scene().field)
     x = np.array([[0.0, 0.9], [0.5, 0.9], [-0.5, 0.9]])
     v = np.array([[0.0, -1.9], [5.0, 0.0], [0.0, 0.0]])  # the second starts above the range
     with Simulation(gl, scene.graph(), 3) as sim:

@@ -1,127 +1,240 @@
-"""Time a de Jong frame by stage on the GPU pipeline and a numpy float32 reference of the same job.
+"""Time a frame of each scene by stage, against numpy and datashader on the same job.
 
-Run: ``python benchmarks/bench.py [--sizes 16,18,20] [--repeats 5]``. Prints a table (median, min,
-max of the repeats after a warm-up, GL work finished inside each timing) and writes it as Markdown
-to ``out/bench/dejong.md``. Ratios are numpy time / our time, measured in the same process, since
-these machines are shared and noisy: compare ratios, not seconds.
+Run: ``python benchmarks/bench.py`` (after ``pip install .``; ``pip install ".[bench]"`` adds
+datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes dejong,collision``,
+``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak). It prints tables and writes
+them as Markdown to ``out/bench/bench.md``.
+
+Each time is the median (and min, max) of the repeats after a warm-up, with the GL work finished
+inside each timing (``ctx.finish()`` or a readback). Ratio columns are peer time / our time,
+measured in the same process: the machines are shared and noisy, so compare ratios.
 """
 
 import argparse
-import io
+import os
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
-from es2particles import open_context
-from es2particles.pipeline import Pipeline
-from es2particles.post import Bloom
-from es2particles.ramps import load_ramp
-from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from peers import NumpyDeJong, NumpyFrame, datashader_dejong, png_bytes  # noqa: E402
+
+from es2particles import open_context  # noqa: E402
+from es2particles.context import FORMAT_DTYPES  # noqa: E402
+from es2particles.pipeline import Pipeline  # noqa: E402
+from es2particles.post import Bloom  # noqa: E402
+from es2particles.scenes.collision import Collision, Physics, step_reference  # noqa: E402
+from es2particles.scenes.dejong import DeJong  # noqa: E402
 
 SIZE = (1024, 1024)
+STAGES = ("step", "render", "post", "readback", "PNG encode", "frame")
+BYTES_PER_TEXEL = {"rgba8": 4, "rgba16f": 8, "rgba32f": 16}
 
 
-def timed(function, repeats):
-    function()  # warm-up
+def timed(function, repeats, finish=lambda: None):
+    function()
+    finish()
     times = []
     for _ in range(repeats):
         start = time.perf_counter()
         function()
+        finish()
         times.append(time.perf_counter() - start)
     return statistics.median(times), min(times), max(times)
 
 
-class NumpyReference:
-    """The same frame in numpy float32: map, bincount density, log tone curve, ramp, blur bloom."""
-
-    def __init__(self, count, rng):
-        self.p = rng.uniform(-2, 2, (count, 2)).astype(np.float32)
-        self.ramp = load_ramp("inferno")[:, :3]
-        self.k = tuple(np.float32(c) for c in ARTICLE_COEFFICIENTS)
-
-    def step(self):
-        self.p = dejong_map(self.p, self.k, 3).astype(np.float32)
-
-    def render(self):
-        w, h = SIZE
-        ij = ((self.p + 2) * np.float32(w / 4)).astype(np.int32).clip(0, w - 1)
-        self.density = np.bincount(ij[:, 1] * w + ij[:, 0], minlength=w * h).reshape(h, w)
-
-    def post(self):
-        mean = len(self.p) / self.density.size
-        t = np.log1p(np.float32(4) * self.density / mean) / np.log1p(np.float32(4 * 256))
-        image = self.ramp[(np.clip(t, 0, 1) * 255).astype(np.uint8)].astype(np.float32) / 255
-        half = image.reshape(SIZE[1] // 2, 2, SIZE[0] // 2, 2, 3).mean(axis=(1, 3))
-        bright = half * (half.mean(axis=2, keepdims=True) > 0.6)
-        kernel = np.exp(-0.5 * (np.arange(-12, 13) / 3.0) ** 2).astype(np.float32)
-        kernel /= kernel.sum()
-        blur = np.apply_along_axis(np.convolve, 0, bright, kernel, "same")
-        blur = np.apply_along_axis(np.convolve, 1, blur, kernel, "same")
-        glow = blur.repeat(2, axis=0).repeat(2, axis=1)
-        self.image = (np.minimum(image + 0.8 * glow, 1) * 255).astype(np.uint8)
+def collision_steady(pipeline, rng):
+    """Every particle alive, spread over the scene with emission-like speeds and ages: the steady
+    fountain's cost without the minutes of warm-up it takes at 2^22 on a CPU rasteriser."""
+    sim, scene = pipeline.sim, pipeline.scene
+    n = sim.count
+    x = rng.uniform(-0.95, 0.95, (3 * n, 2))
+    x = x[scene.field.exact_distance(x) > 0.01][:n]
+    while len(x) < n:
+        x = np.concatenate([x, x[: n - len(x)]])
+    angle = rng.uniform(0, 2 * np.pi, n)
+    speed = rng.uniform(0.5, 3.0, n)
+    life = rng.uniform(*scene.physics.lifetime, n)
+    sim.upload("position", x)
+    sim.upload("velocity", np.stack([np.cos(angle), np.sin(angle)], 1) * speed[:, None])
+    sim.upload("life", np.stack([rng.uniform(0, 1, n) * life, life], 1))
 
 
-def png_bytes(image):
-    buffer = io.BytesIO()
-    Image.fromarray(image).save(buffer, format="PNG")
-    return buffer.getvalue()
-
-
-def bench(ctx, log2n, repeats):
-    count = 2 ** log2n
-    rows = []
-    with Pipeline(ctx, DeJong(), count, SIZE, bloom=Bloom()) as gpu:
+def ours(ctx, scene_name, count, repeats):
+    scene = DeJong() if scene_name == "dejong" else Collision("circle+box+capsule")
+    with Pipeline(ctx, scene, count, SIZE, bloom=Bloom()) as p:
+        if scene_name == "dejong":
+            p.step(20)
+        else:
+            collision_steady(p, np.random.default_rng(0))
         finish = ctx.mgl.finish
-        step = timed(lambda: (gpu.step(1), finish()), repeats)
-        render = timed(lambda: (gpu.renderer.draw(gpu.sim.buffers["position"]), finish()), repeats)
-        density = gpu.renderer.target
-        post = timed(lambda: (gpu.post.apply(density), finish()), repeats)
-        final = gpu.post.apply(density)
-        readback = timed(lambda: gpu.post.read(final), repeats)
-        image = gpu.post.read(final)
-        encode = timed(lambda: png_bytes(image), repeats)
-        frame = timed(lambda: (gpu.step(1), gpu.render(), png_bytes(gpu.image())), repeats)
-    ref = NumpyReference(count, np.random.default_rng(0))
-    ref.render()
-    ours = {"step": step, "render": render, "post": post, "readback": readback, "PNG encode": encode,
-            "whole frame": frame}
-    theirs = {"step": timed(ref.step, repeats), "render": timed(ref.render, repeats),
-              "post": timed(ref.post, repeats), "readback": None,
-              "PNG encode": timed(lambda: png_bytes(ref.image), repeats),
-              "whole frame": timed(lambda: (ref.step(), ref.render(), ref.post(),
-                                            png_bytes(ref.image)), repeats)}
-    for stage, (median, lo, hi) in ours.items():
-        peer = theirs[stage]
-        ratio = f"{peer[0] / median:.2f}" if peer else "-"
-        peer_text = f"{peer[0] * 1e3:.1f}" if peer else "-"
-        rows.append((f"2^{log2n}", stage, f"{median * 1e3:.1f}", f"{lo * 1e3:.1f}",
-                     f"{hi * 1e3:.1f}", peer_text, ratio))
+        position, life = p.sim.buffers["position"], p.sim.buffers.get("life")
+        rows = {"step": timed(lambda: p.step(1), repeats, finish),
+                "render": timed(lambda: p.renderer.draw(position, life), repeats, finish)}
+        density = p.renderer.target
+        rows["post"] = timed(lambda: p.post.apply(density), repeats, finish)
+        final = p.post.apply(density)
+        rows["readback"] = timed(lambda: p.post.read(final), repeats)
+        image = p.post.read(final)
+        # Ours encodes at deflate level 1, as es2particles.output.save_image does.
+        rows["PNG encode"] = timed(lambda: png_bytes(image, 1), repeats)
+        rows["frame"] = timed(lambda: (p.step(1), p.render(), png_bytes(p.image(), 1)), repeats)
+        buffers = dict(p.sim.plan.buffers)
+    return rows, buffers
+
+
+def numpy_peer(scene_name, count, repeats):
+    if scene_name == "dejong":
+        job = NumpyDeJong(count)
+        frame, step = job.frame, job.step
+        positions = lambda: job.p  # noqa: E731
+    else:
+        if count > 2 ** 18:  # the float64 twin loops over sub-steps: minutes per step beyond
+            return None
+        scene = Collision("circle+box+capsule")
+        rng = np.random.default_rng(0)
+        state = {"x": rng.uniform(-0.9, 0.9, (count, 2)), "v": rng.uniform(-2, 2, (count, 2)),
+                 "life": np.stack([np.zeros(count), np.full(count, 5.0)], 1)}
+        frame = NumpyFrame(extent=1.0)
+
+        def step():
+            state["x"], state["v"], state["life"] = step_reference(
+                state["x"], state["v"], state["life"], scene.field, scene.physics)
+        positions = lambda: state["x"]  # noqa: E731
+        repeats = min(repeats, 3)
+    frame.density(positions())
+    frame.post()
+    rows = {"step": timed(step, repeats),
+            "render": timed(lambda: frame.density(positions()), repeats),
+            "post": timed(frame.post, repeats), "readback": None,
+            "PNG encode": timed(lambda: png_bytes(frame.image), repeats),
+            "frame": timed(lambda: (step(), frame.density(positions()), png_bytes(frame.post())),
+                           repeats)}
     return rows
+
+
+def datashader_peer(count, repeats):
+    job = datashader_dejong(count)
+    if job is None:
+        return None
+    step, render, post, encode = job
+    render()
+    post()
+    return {"step": timed(step, repeats), "render": timed(render, repeats),
+            "post": timed(post, repeats), "readback": None, "PNG encode": timed(encode, repeats),
+            "frame": timed(lambda: (step(), render(), post(), encode()), repeats)}
+
+
+def host_memory_growth(ctx, frames=500):
+    """Resident memory after frame 10 and after frame ``frames`` of a de Jong animation."""
+    def rss():
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+    with Pipeline(ctx, DeJong(), 2 ** 16, (512, 512), bloom=Bloom()) as p:
+        marks = {}
+        for frame in range(1, frames + 1):
+            p.step(1)
+            p.render()
+            p.image()
+            if frame in (10, frames):
+                marks[frame] = rss()
+    return marks
+
+
+def startup():
+    """Seconds for: importing the package; making the context; a whole `run` command at 2^20,
+    against a numpy + pillow script making the same picture."""
+    env = dict(os.environ)
+    with tempfile.TemporaryDirectory() as tmp:
+        def wall(args):
+            start = time.perf_counter()
+            subprocess.run(args, check=True, capture_output=True, env=env)
+            return time.perf_counter() - start
+        imports = min(wall([sys.executable, "-c", "import es2particles"]) for _ in range(3))
+        context = min(wall([sys.executable, "-c", "import es2particles as e; e.open_context()"])
+                      for _ in range(3))
+        command = min(wall([sys.executable, "-m", "es2particles.cli", "run", "dejong", "--out",
+                            f"{tmp}/a.png"]) for _ in range(3))
+        script = min(wall([sys.executable, str(Path(__file__).parent / "peers.py"),
+                           f"{tmp}/b.png"]) for _ in range(3))
+    return imports, context, command, script
+
+
+def fmt_ms(t):
+    return "-" if t is None else f"{t[0] * 1e3:.1f}"
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", default="16,18,20", help="log2 of the particle counts")
+    parser.add_argument("--sizes", default="16,18,20,22")
+    parser.add_argument("--scenes", default="dejong,collision")
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
-    header = ("N", "stage", "ours median ms", "min", "max", "numpy ms", "numpy / ours")
+    sizes = [16, 18] if args.quick else [int(s) for s in args.sizes.split(",")]
+    out_lines = []
+
+    def emit(line=""):
+        print(line, flush=True)
+        out_lines.append(line)
+
     with open_context() as ctx:
-        print(f"renderer: {ctx.caps.renderer}; frame {SIZE[0]}x{SIZE[1]}, de Jong, 3 iterations, "
-              "bloom on", file=sys.stderr)
-        rows = [row for n in args.sizes.split(",") for row in bench(ctx, int(n), args.repeats)]
-        renderer = ctx.caps.renderer
-    widths = [max(len(str(r[i])) for r in rows + [header]) for i in range(len(header))]
-    for row in [header] + rows:
-        print("  ".join(str(v).rjust(w) for v, w in zip(row, widths)))
+        emit(f"Renderer: {ctx.caps.renderer}; {os.cpu_count()} CPU cores; frame {SIZE[0]}x"
+             f"{SIZE[1]}, bloom on; median (min-max) of {args.repeats} after a warm-up")
+        have_ds = datashader_dejong(16) is not None
+        if not have_ds:
+            emit("datashader is not installed (pip install \".[bench]\"): its column is empty")
+        scaling = {}
+        for scene in args.scenes.split(","):
+            emit()
+            emit(f"## {scene}")
+            emit()
+            emit("| N | stage | ours ms (min-max) | fps | numpy ms | numpy/ours | datashader ms | "
+                 "datashader/ours |")
+            emit("|---|---|---|---|---|---|---|---|")
+            for log2n in sizes:
+                count = 2 ** log2n
+                mine, buffers = ours(ctx, scene, count, args.repeats)
+                peer = numpy_peer(scene, count, args.repeats)
+                ds = datashader_peer(count, args.repeats) if scene == "dejong" and have_ds else None
+                scaling.setdefault(scene, []).append((count, mine["step"][0]))
+                for stage in STAGES:
+                    t = mine[stage]
+                    p = peer[stage] if peer else None
+                    d = ds[stage] if ds else None
+                    fps = f"{1 / t[0]:.1f}" if stage == "frame" else ""
+                    emit(f"| 2^{log2n} | {stage} | {t[0] * 1e3:.1f} ({t[1] * 1e3:.1f}-"
+                         f"{t[2] * 1e3:.1f}) | {fps} | {fmt_ms(p)} | "
+                         f"{'-' if p is None else f'{p[0] / t[0]:.2f}'} | {fmt_ms(d)} | "
+                         f"{'-' if d is None else f'{d[0] / t[0]:.2f}'} |")
+            emit()
+            emit(f"GPU state per particle ({scene}, {', '.join(f'{q}: {n}' for q, n in buffers.items())}"
+                 f" textures): " + ", ".join(
+                     f"{f} {sum(buffers.values()) * b} B" for f, b in BYTES_PER_TEXEL.items()
+                     if f in FORMAT_DTYPES) + f"; plus 8 B of texel coordinates for drawing")
+            counts, times = zip(*scaling[scene])
+            if len(counts) >= 2:
+                exponent = np.polyfit(np.log(counts), np.log(times), 1)[0]
+                emit(f"Scaling of the {scene} step with N: time ~ N^{exponent:.2f}")
+        if not args.quick:
+            marks = host_memory_growth(ctx)
+            emit()
+            emit(f"Host memory (de Jong 2^16 animation): frame 10 {marks[10] / 2**20:.1f} MiB, "
+                 f"frame 500 {marks[500] / 2**20:.1f} MiB")
+    if not args.quick:
+        imports, context, command, script = startup()
+        emit(f"Start-up: import {imports * 1e3:.0f} ms, import + context {context * 1e3:.0f} ms; "
+             f"whole `es2particles run dejong` (2^20, 20 steps, PNG) {command:.2f} s against the "
+             f"numpy + pillow script {script:.2f} s (ratio {script / command:.2f})")
     out = Path("out/bench")
     out.mkdir(parents=True, exist_ok=True)
-    lines = [f"Renderer: {renderer}", "", "| " + " | ".join(header) + " |",
-             "|" + "---|" * len(header)] + ["| " + " | ".join(row) + " |" for row in rows]
-    (out / "dejong.md").write_text("\n".join(lines) + "\n")
+    (out / "bench.md").write_text("\n".join(out_lines) + "\n")
 
 
 if __name__ == "__main__":

@@ -71,6 +71,7 @@ class Pipeline:
             raise
         scene.initialise(self.sim, np.random.default_rng(seed))
         self.final = None
+        self._ordered = not scene.positions_repeat
 
     def step(self, steps=1):
         self.sim.run(steps)
@@ -79,6 +80,9 @@ class Pipeline:
         """Draw the particles and run the post passes; returns the final texture."""
         position = self.sim.buffers[self.scene.outputs[0]]
         life = self.sim.buffers.get("life")
+        if not self._ordered:  # once: positions repeat from frame to frame (see render.py)
+            self.renderer.order_by_tiles(position.download(), self.scene.view)
+            self._ordered = True
         density = self.renderer.draw(position, life)
         self.final = self.post.apply(density)
         return self.final

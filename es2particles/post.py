@@ -30,6 +30,20 @@ class Bloom:
         check_range("bloom intensity", self.intensity, 0, 10)
 
 
+def blur_taps(sigma, taps=12):
+    """(centre weight, [(offset, weight)] * taps/2) of a normalised Gaussian of ``taps`` texels
+    each side, with neighbouring taps paired into one linearly filtered fetch (numpy twin of
+    what ``post/blur.frag`` sums)."""
+    x = np.arange(taps + 1, dtype=np.float64)
+    w = np.exp(-0.5 * x ** 2 / sigma ** 2)
+    w /= w[0] + 2 * w[1:].sum()
+    pairs = []
+    for i in range(1, taps + 1, 2):
+        weight = w[i] + w[i + 1]
+        pairs.append(((i * w[i] + (i + 1) * w[i + 1]) / weight, weight))
+    return float(w[0]), pairs
+
+
 class _Stage:
     """One full-screen post pass: a program, its target, and the textures it samples."""
 
@@ -120,8 +134,9 @@ class PostChain:
             blur_x = self._stage("post/blur.frag", size)
             blur_y = self._stage("post/blur.frag", size)
             # Sigma is in texels of each level, so the quarter level glows twice as wide.
-            blur_x.set(u_source=0, u_direction=(1 / size[0], 0.0), u_sigma=bloom.radius)
-            blur_y.set(u_source=0, u_direction=(0.0, 1 / size[1]), u_sigma=bloom.radius)
+            centre, pairs = blur_taps(bloom.radius)
+            blur_x.set(u_source=0, u_direction=(1 / size[0], 0.0), u_centre=centre, u_taps=pairs)
+            blur_y.set(u_source=0, u_direction=(0.0, 1 / size[1]), u_centre=centre, u_taps=pairs)
             self.levels.append((bright, blur_x, blur_y))
         self.composite = self._stage("post/composite.frag", self.size)
         self.composite.set(u_source=0, u_bloom0=1, u_bloom1=2, u_intensity=bloom.intensity / 2)

@@ -48,6 +48,7 @@ class DeJong(Scene):
         # density distance 0.085 against a 0.053 noise floor); dithered rounding stays at the
         # floor (99.9% distinct, 0.053). Reseeded frames write once: nearest is exact there.
         self.default_rounding = "nearest" if reseed else "dither"
+        self.positions_repeat = self.reseed
         if reseed:
             self.default_steps = 1
 

@@ -28,7 +28,7 @@ from es2particles import open_context  # noqa: E402
 from es2particles.context import FORMAT_DTYPES  # noqa: E402
 from es2particles.pipeline import Pipeline  # noqa: E402
 from es2particles.post import Bloom  # noqa: E402
-from es2particles.scenes.collision import Collision, Physics, step_reference  # noqa: E402
+from es2particles.scenes.collision import Collision, step_reference  # noqa: E402
 from es2particles.scenes.dejong import DeJong  # noqa: E402
 
 SIZE = (1024, 1024)
@@ -217,7 +217,7 @@ def main(argv=None):
             emit(f"GPU state per particle ({scene}, {', '.join(f'{q}: {n}' for q, n in buffers.items())}"
                  f" textures): " + ", ".join(
                      f"{f} {sum(buffers.values()) * b} B" for f, b in BYTES_PER_TEXEL.items()
-                     if f in FORMAT_DTYPES) + f"; plus 8 B of texel coordinates for drawing")
+                     if f in FORMAT_DTYPES) + "; plus 8 B of texel coordinates for drawing")
             counts, times = zip(*scaling[scene])
             if len(counts) >= 2:
                 exponent = np.polyfit(np.log(counts), np.log(times), 1)[0]

@@ -105,7 +105,7 @@ def collision_dt_row(ctx, fmt, rounding, k, horizon, count=256, drag=0.5):
 
 
 def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
-    """Collision scene: step time, short-horizon error against the float64 twin at dt/8,
+    """Collision scene: step time, frame time with rendering, short-horizon error against the float64 twin at dt/8,
     deepest penetration, and energy drift (r = 1, s = 1, no drag, no emitter: the response keeps
     the speed, so any drift is the integrator's and the format's)."""
     physics = Physics(emit=False, drag=0.0, bounce=1.0, sliding=1.0)
@@ -115,13 +115,14 @@ def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
     x = x[scene.field.exact_distance(x) > 0.02][:count]
     v = rng.uniform(-2, 2, (count, 2))
     life = np.stack([np.zeros(count), np.full(count, physics.max_age)], 1)
-    with Simulation(ctx, scene.graph(), count, fmt=fmt, rounding=rounding) as sim:
-        scene.initialise(sim, np.random.default_rng(0))
+    with Pipeline(ctx, scene, count, (512, 512), fmt=fmt, bloom=Bloom(), rounding=rounding) as p:
+        sim = p.sim
         for name, values in (("position", x), ("velocity", v), ("life", life)):
             sim.upload(name, values)
         x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
         energy0 = 0.5 * np.sum(v * v, 1) - physics.gravity[1] * x[:, 1]
         step = median_time(sim.step, ctx.mgl.finish)
+        frame = median_time(lambda: (sim.step(), p.render()), ctx.mgl.finish)
         for name, values in (("position", x), ("velocity", v), ("life", life)):
             sim.upload(name, values)
         deepest = 0.0
@@ -129,13 +130,15 @@ def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
             sim.step()
             deepest = min(deepest, float(scene.field.exact_distance(sim.download("position")).min()))
         xg, vg = sim.download("position"), sim.download("velocity")
+        note = sim.format_note
     fine = replace(physics, dt=physics.dt / 8)
     xr, vr, lr = x, v, life
     for _ in range(8 * horizon_steps):
         xr, vr, lr = step_reference(xr, vr, lr, scene.field, fine)
     energy = 0.5 * np.sum(vg * vg, 1) - physics.gravity[1] * xg[:, 1]
-    return {"scene": "collision", "format": sim.format_note, "rounding": rounding, "N": count,
-            "step_s": step, "median_error": float(np.median(np.abs(xg - xr).max(axis=1))),
+    return {"scene": "collision", "format": note, "rounding": rounding, "N": count,
+            "step_s": step, "frame_s": frame,
+            "median_error": float(np.median(np.abs(xg - xr).max(axis=1))),
             "max_error": float(np.abs(xg - xr).max()), "deepest": deepest,
             "energy_drift": float((energy.sum() - energy0.sum()) / abs(energy0.sum()))}
 

@@ -35,6 +35,13 @@ def pack16_channels(x):
 
 def pack16(x, store="round"):
     """Bytes (..., 2) = (high, low) that a GPU stores for ``x`` under the given store rule."""
+    if store == "round":
+        # Both channels are exact multiples of 1/255, which a rounding store keeps exactly: the
+        # bytes are the code's digits in base 255. Integer arithmetic here is ~5x faster than
+        # going through the float channels, and gives the same bytes (tests check both ways).
+        code = np.floor(clamp_unit(x) * F32(CODES_PER_UNIT) + F32(0.5)).astype(np.int32)
+        high = code // 255
+        return np.stack([high, code - 255 * high], axis=-1).astype(np.uint8)
     high, low = pack16_channels(x)
     return np.stack([store_unorm8(high, store), store_unorm8(low, store)], axis=-1)
 

@@ -155,7 +155,7 @@ def _write(ctx, out, quick, dejong_rows, collision_rows, dt_rows, cases, stiff_c
         lines += ["![collision](collision_work_precision.png)", ""]
     lines += [_table(collision_rows, [
         ("state", "series", str), ("N", "N", str), ("step ms", "step_s", _ms),
-        ("median error", "median_error", _sci), ("max error", "max_error", _sci),
+        ("frame ms", "frame_s", _ms), ("median error", "median_error", _sci), ("max error", "max_error", _sci),
         ("deepest", "deepest", lambda v: f"{v:.4f}"),
         ("energy drift", "energy_drift", lambda v: f"{v:+.2e}")]), ""]
     lines += ["## Collision: error against time step", "",

@@ -102,7 +102,12 @@ class StateBuffer:
         self.ctx, self.quantity, self.layout, self.fmt = ctx, quantity, layout, fmt
         self.textures = [ctx.texture(layout.size, fmt) for _ in range(buffers)]
         self.framebuffers = [ctx.framebuffer(t) for t in self.textures]
-        self.upload(np.zeros((layout.count, 2)))
+        # Start at world (0, 0) (clamped into the range): a GPU clear to that texel, cheaper
+        # than encoding and uploading a zero array.
+        texel = packing.state_encode(np.zeros((1, 2)), quantity.range_vec4, fmt)[0]
+        colour = texel / 255.0 if fmt == "rgba8" else texel
+        for framebuffer in self.framebuffers:
+            framebuffer.clear(*(float(c) for c in colour))
 
     @property
     def front(self):

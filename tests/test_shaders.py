@@ -1,6 +1,7 @@
 """Shader loading: every shader is valid GLSL ES 1.00 for the Khronos reference compiler, includes
 and defines expand as documented, and errors name the file and the line."""
 
+import re
 import subprocess
 from pathlib import Path
 
@@ -10,7 +11,17 @@ from conftest import TEST_SHADERS, glslang, shader
 from es2particles import ShaderError
 from es2particles.shaders import expand, shader_root
 
-VARIANTS = [{}, {"STATE_FLOAT": None}]
+def variants(path):
+    """The default build and one build per flag the shader tests (#ifdef / defined()), so every
+    branch is compiled. Flags with values (#define NAME value) keep their defaults; the dither
+    flag is for fragment shaders only (it reads gl_FragCoord)."""
+    text = expand(path).text
+    flags = set(re.findall(r"#\s*ifn?def\s+(\w+)", text)) | set(re.findall(r"defined\((\w+)\)", text))
+    valued = set(re.findall(r"#\s*define\s+(\w+)\s+\S", text))
+    flags -= valued
+    if path.endswith(".vert"):
+        flags.discard("STATE_DITHER")
+    return [{}] + [{flag: None} for flag in sorted(flags)]
 
 
 def all_shaders():
@@ -21,8 +32,11 @@ def all_shaders():
     return [str(p) for p in library + tests]
 
 
-@pytest.mark.parametrize("path", all_shaders(), ids=lambda p: Path(p).name)
-@pytest.mark.parametrize("defines", VARIANTS, ids=["default", "float-state"])
+BUILDS = [(path, defines) for path in all_shaders() for defines in variants(path)]
+
+
+@pytest.mark.parametrize("path, defines", BUILDS,
+                         ids=[f"{Path(p).name}-{next(iter(d), 'default')}" for p, d in BUILDS])
 def test_every_shader_is_valid_glsl_es_100(path, defines, tmp_path):
     tool = glslang()
     source = expand(path, defines).text

@@ -82,6 +82,11 @@ class DeJong(Scene):
             flags["RESEED"] = None
         return flags
 
+    def describe(self):
+        return ["de Jong needs no velocity or acceleration: one quantity (position), one pass"
+                + ("; reseeded: nothing reads last step's position, so one texture" if self.reseed
+                   else "")]
+
     def initialise(self, sim, rng):
         if not self.reseed:
             sim.upload("position", uniform_start(sim.count, (-RANGE, -RANGE), (RANGE, RANGE), rng))

@@ -17,7 +17,7 @@ def variants(path):
     flag is for fragment shaders only (it reads gl_FragCoord)."""
     text = expand(path).text
     flags = set(re.findall(r"#\s*ifn?def\s+(\w+)", text)) | set(re.findall(r"defined\((\w+)\)", text))
-    valued = set(re.findall(r"#\s*define\s+(\w+)\s+\S", text))
+    valued = set(re.findall(r"#[ \t]*define[ \t]+(\w+)[ \t]+\S", text))
     flags -= valued
     if path.endswith(".vert"):
         flags.discard("STATE_DITHER")

@@ -25,7 +25,8 @@ class Case:
     passed: bool
 
     def row(self):
-        return (self.name, self.measured, self.bound, "pass" if self.passed else "FAIL")
+        result = "shown" if self.passed is None else ("pass" if self.passed else "FAIL")
+        return (self.name, self.measured, self.bound, result)
 
 
 def free_scene(**changes):
@@ -194,10 +195,13 @@ def grid_cycles(ctx, count, steps):
         distinct = len(np.unique(p, axis=0)) / count
         tv = density_distance(p, reference)
         figures[rounding] = (distinct, tv)
+        # Nearest rounding is shown for comparison (it is why dither is the default); the bound
+        # is asserted for the default only.
+        within = bool(tv <= 1.25 * floor)
         cases.append(Case(f"{count} particles, {steps} stateful de Jong steps, {rounding} "
                           "rounding: distinct positions, 64x64 density distance to float64",
                           f"{distinct:.1%}, {tv:.3f}", f"noise floor {floor:.3f} (+25%)",
-                          bool(tv <= 1.25 * floor)))
+                          within if rounding == "dither" else None))
     return cases, figures, floor
 
 

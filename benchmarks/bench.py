@@ -12,7 +12,6 @@ measured in the same process: the machines are shared and noisy, so compare rati
 
 import argparse
 import os
-import statistics
 import subprocess
 import sys
 import tempfile
@@ -26,6 +25,7 @@ from peers import NumpyDeJong, NumpyFrame, datashader_dejong, png_bytes  # noqa:
 
 from es2particles import open_context  # noqa: E402
 from es2particles.context import FORMAT_DTYPES  # noqa: E402
+from es2particles.measure import timings  # noqa: E402
 from es2particles.pipeline import Pipeline  # noqa: E402
 from es2particles.post import Bloom  # noqa: E402
 from es2particles.scenes.collision import Collision, step_reference  # noqa: E402
@@ -37,15 +37,7 @@ BYTES_PER_TEXEL = {"rgba8": 4, "rgba16f": 8, "rgba32f": 16}
 
 
 def timed(function, repeats, finish=lambda: None):
-    function()
-    finish()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        finish()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times), min(times), max(times)
+    return timings(function, finish, repeats)
 
 
 def collision_steady(pipeline, rng):

@@ -20,7 +20,9 @@ from .scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 from .simulation import Simulation
 
 
-def median_time(function, finish, repeats=5):
+def timings(function, finish=lambda: None, repeats=5):
+    """(median, min, max) seconds of ``repeats`` calls after one warm-up call; ``finish`` (e.g.
+    ``ctx.finish``) runs inside each timing so that GPU work is counted."""
     function()
     finish()
     times = []
@@ -29,7 +31,11 @@ def median_time(function, finish, repeats=5):
         function()
         finish()
         times.append(time.perf_counter() - start)
-    return statistics.median(times)
+    return statistics.median(times), min(times), max(times)
+
+
+def median_time(function, finish, repeats=5):
+    return timings(function, finish, repeats)[0]
 
 
 def density_distance(a, b, bins=64, extent=2.0):

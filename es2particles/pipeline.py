@@ -66,10 +66,10 @@ class Pipeline:
                                           self.sim.fmt, point_size, intensity, scene.fade_by_life)
             self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
                                   bloom, scene.background())
+            scene.initialise(self.sim, np.random.default_rng(seed))
         except Exception:
             self.release()
             raise
-        scene.initialise(self.sim, np.random.default_rng(seed))
         self.final = None
         self._ordered = not scene.positions_repeat
 

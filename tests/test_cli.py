@@ -35,7 +35,9 @@ def test_plan_shows_only_what_the_scene_needs(capsys):
     text = capsys.readouterr().out
     assert "1. dejong: dejong.frag writes position; reads nothing" in text
     assert "position: 1 (single" in text
-    assert "velocity" not in text and "acceleration" not in text
+    assert "writes velocity" not in text and "velocity: " not in text
+    assert "writes acceleration" not in text and "acceleration: " not in text
+    assert "de Jong needs no velocity or acceleration" in text
     assert "left out: bloom (switched off)" in text
     assert "bloom:" not in text
 

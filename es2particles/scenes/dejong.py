@@ -83,7 +83,8 @@ class DeJong(Scene):
         return flags
 
     def describe(self):
-        return ["de Jong needs no velocity or acceleration: one quantity (position), one pass"
+        return ["de Jong needs no velocity or acceleration, so neither is declared: one quantity "
+                "(position), one pass"
                 + ("; reseeded: nothing reads last step's position, so one texture" if self.reseed
                    else "")]
 

@@ -18,8 +18,12 @@ INSTALL_HINT = (
     "install a GL driver with EGL: on Debian/Ubuntu 'apt-get install libegl1 libgl1-mesa-dri "
     "libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also works)"
 )
-# Formats the state and the accumulation target may use: name -> (moderngl dtype).
+# Formats the state may use: name -> moderngl dtype (four components).
 FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
+# Every texture format made here: name -> (components, moderngl dtype). r32f is for the density
+# target only (one channel is all it needs; not ES 2.0, so it is probed like the float formats).
+TEXTURE_FORMATS = {**{name: (4, dtype) for name, dtype in FORMAT_DTYPES.items()}, "r32f": (1, "f4")}
+READ_DTYPES = {"f1": "u1", "f2": "f2", "f4": "f4"}
 
 
 def _backends():
@@ -71,7 +75,7 @@ class Capabilities:
                 ("max particles (max texture size squared)", self.max_texture_size ** 2),
                 ("vertex texture image units", self.max_vertex_texture_units),
                 ("point size range", "%g..%g" % tuple(self.point_size_range))]
-        for name in FORMAT_DTYPES:
+        for name in TEXTURE_FORMATS:
             rows.append((f"{name} render target / additive blend",
                          f"{_yes(self.renderable.get(name))} / {_yes(self.blendable.get(name))}"))
         rows.append(("8-bit store of a float channel", self.store_rule))
@@ -156,7 +160,8 @@ class Context:
 
         Packed state must be sampled NEAREST: linear filtering would mix high and low bytes.
         """
-        tex = self.own(self.mgl.texture(tuple(size), 4, data=data, dtype=FORMAT_DTYPES[fmt]))
+        components, dtype = TEXTURE_FORMATS[fmt]
+        tex = self.own(self.mgl.texture(tuple(size), components, data=data, dtype=dtype))
         import moderngl
 
         mode = moderngl.NEAREST if filter_nearest else moderngl.LINEAR
@@ -216,7 +221,7 @@ def _probe(ctx):
         max_vertex_texture_units=int(info.get("GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS", 0)),
         point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
     )
-    for fmt in FORMAT_DTYPES:
+    for fmt in TEXTURE_FORMATS:
         caps.renderable[fmt], caps.blendable[fmt] = _probe_format(ctx, fmt)
     caps.store_rule = _probe_store_rule(ctx)
     return caps
@@ -241,8 +246,9 @@ def _draw_constant(ctx, fmt, colour, blend):
         if blend:
             vao.render(moderngl.TRIANGLES)
             ctx.mgl.disable(moderngl.BLEND)
-        dtype = {"rgba8": "u1", "rgba16f": "f2", "rgba32f": "f4"}[fmt]
-        return np.frombuffer(tex.read(), dtype=dtype).reshape(-1, 4)[0].astype(np.float64)
+        components, dtype = TEXTURE_FORMATS[fmt]
+        texel = np.frombuffer(tex.read(), dtype=READ_DTYPES[dtype]).reshape(-1, components)[0]
+        return np.resize(texel.astype(np.float64), 4)  # r32f: only .r is meaningful
     finally:
         ctx.free(vao, fbo, tex)
 
@@ -257,7 +263,7 @@ def _probe_format(ctx, fmt):
         return False, False
     if fmt == "rgba8":
         return bool(once[0] == 64), bool(twice[0] == 128)
-    return bool(abs(once[2] - 2.0) < 1e-3), bool(abs(twice[2] - 4.0) < 1e-3)
+    return bool(abs(once[0] - 0.25) < 1e-3), bool(abs(twice[0] - 0.5) < 1e-3)
 
 
 def _probe_store_rule(ctx):

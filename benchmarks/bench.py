@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from peers import NumpyDeJong, NumpyFrame, datashader_dejong, png_bytes  # noqa: E402
 
 from es2particles import open_context  # noqa: E402
-from es2particles.context import FORMAT_DTYPES  # noqa: E402
+from es2particles.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
 from es2particles.measure import timings  # noqa: E402
 from es2particles.pipeline import Pipeline  # noqa: E402
 from es2particles.post import Bloom  # noqa: E402
@@ -33,7 +33,6 @@ from es2particles.scenes.dejong import DeJong  # noqa: E402
 
 SIZE = (1024, 1024)
 STAGES = ("step", "render", "post", "readback", "PNG encode", "frame")
-BYTES_PER_TEXEL = {"rgba8": 4, "rgba16f": 8, "rgba32f": 16}
 
 
 def timed(function, repeats, finish=lambda: None):
@@ -208,8 +207,7 @@ def main(argv=None):
             emit()
             emit(f"GPU state per particle ({scene}, {', '.join(f'{q}: {n}' for q, n in buffers.items())}"
                  f" textures): " + ", ".join(
-                     f"{f} {sum(buffers.values()) * b} B" for f, b in BYTES_PER_TEXEL.items()
-                     if f in FORMAT_DTYPES) + "; plus 8 B of texel coordinates for drawing")
+                     f"{f} {sum(buffers.values()) * bytes_per_texel(f)} B" for f in FORMAT_DTYPES) + "; plus 8 B of texel coordinates for drawing")
             counts, times = zip(*scaling[scene])
             if len(counts) >= 2:
                 exponent = np.polyfit(np.log(counts), np.log(times), 1)[0]

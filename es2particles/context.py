@@ -23,7 +23,17 @@ FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
 # Every texture format made here: name -> (components, moderngl dtype). r32f is for the density
 # target only (one channel is all it needs; not ES 2.0, so it is probed like the float formats).
 TEXTURE_FORMATS = {**{name: (4, dtype) for name, dtype in FORMAT_DTYPES.items()}, "r32f": (1, "f4")}
-READ_DTYPES = {"f1": "u1", "f2": "f2", "f4": "f4"}
+_NUMPY = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}
+
+
+def numpy_dtype(fmt):
+    """The numpy dtype of one channel of a texture of ``fmt``, as read back or written."""
+    return _NUMPY[TEXTURE_FORMATS[fmt][1]]
+
+
+def bytes_per_texel(fmt):
+    components, dtype = TEXTURE_FORMATS[fmt]
+    return components * np.dtype(_NUMPY[dtype]).itemsize
 
 
 def _backends():
@@ -246,8 +256,8 @@ def _draw_constant(ctx, fmt, colour, blend):
         if blend:
             vao.render(moderngl.TRIANGLES)
             ctx.mgl.disable(moderngl.BLEND)
-        components, dtype = TEXTURE_FORMATS[fmt]
-        texel = np.frombuffer(tex.read(), dtype=READ_DTYPES[dtype]).reshape(-1, components)[0]
+        components = TEXTURE_FORMATS[fmt][0]
+        texel = np.frombuffer(tex.read(), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
         return np.resize(texel.astype(np.float64), 4)  # r32f: only .r is meaningful
     finally:
         ctx.free(vao, fbo, tex)

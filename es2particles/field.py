@@ -15,14 +15,14 @@ normals; a mask's come from the gradient of its distance transform, computed onc
 """
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 
 from . import packing
+from .context import FORMAT_DTYPES, bytes_per_texel
 from .errors import ParameterError, check_range
-
-FIELD_BYTES_PER_CELL = {"rgba8": 4, "rgba16f": 8, "rgba32f": 16}
 
 
 # --- shapes: signed distance and its gradient, float64 ----------------------------------------
@@ -244,7 +244,7 @@ class CollisionField:
     def sample(self, p):
         """numpy twin of ``field_sample``: the NEAREST cell's decoded normal, and its distance
         carried from the cell's centre to p along that normal."""
-        d, n = self._decoded if hasattr(self, "_decoded") else self._cache()
+        d, n = self._decoded
         x0, y0, x1, y1 = self.rect
         w, h = self.resolution
         i = np.clip(np.floor((p[..., 0] - x0) / (x1 - x0) * w), 0, w - 1).astype(int)
@@ -253,9 +253,9 @@ class CollisionField:
         normal = n[j, i].astype(np.float64)
         return d[j, i] + np.sum(normal * (p - centre), axis=-1), normal
 
-    def _cache(self):
-        self._decoded = self.decoded()
-        return self._decoded
+    @cached_property
+    def _decoded(self):
+        return self.decoded()
 
     def exact_distance(self, p):
         """Float64 signed distance to the analytic shapes and the walls at points p (tests)."""
@@ -269,7 +269,7 @@ class CollisionField:
 
 def memory_table(resolutions=((128, 128), (256, 256), (512, 512), (1024, 1024), (2048, 2048))):
     """Rows (resolution, bytes per format) of the field's texture memory."""
-    return [(f"{w}x{h}", {fmt: w * h * b for fmt, b in FIELD_BYTES_PER_CELL.items()})
+    return [(f"{w}x{h}", {fmt: w * h * bytes_per_texel(fmt) for fmt in FORMAT_DTYPES})
             for w, h in resolutions]
 
 

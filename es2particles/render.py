@@ -81,6 +81,7 @@ class PointRenderer:
         # Float state formats do not decode through the range: the driver drops the uniform.
         self._position_range = self.program.get("u_position_range", None)
         self._life_range = self.program.get("u_life_range", None) if fade_by_life else None
+        self._ranges_for = None  # the quantities whose ranges the uniforms hold
 
     @property
     def mean_density(self):
@@ -109,12 +110,14 @@ class PointRenderer:
         mgl.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
         mgl.blend_func = moderngl.ONE, moderngl.ONE
         position.front.use(0)
-        if self._position_range is not None:
-            self._position_range.value = tuple(position.quantity.range_vec4)
         if self.fade_by_life:
             life.front.use(1)
-            if self._life_range is not None:
-                self._life_range.value = tuple(life.quantity.range_vec4)
+        quantities = (position.quantity, life.quantity if self.fade_by_life else None)
+        if quantities != self._ranges_for:  # set once, not every frame
+            for handle, quantity in zip((self._position_range, self._life_range), quantities):
+                if handle is not None and quantity is not None:
+                    handle.value = tuple(quantity.range_vec4)
+            self._ranges_for = quantities
         self.vao.render(moderngl.POINTS, vertices=self.layout.count)
         mgl.disable(moderngl.BLEND)
         return self.target

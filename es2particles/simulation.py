@@ -160,10 +160,6 @@ class Simulation:
         """World values (count, 2), float64, of quantity ``name`` after the last step."""
         return self._buffer(name).download()
 
-    def texture(self, name):
-        """The texture holding the latest value of ``name`` (for a renderer)."""
-        return self._buffer(name).front
-
     def attach_texture(self, name, texture):
         """Bind a texture that is not a quantity (a collision field, say) to sampler ``name`` of
         every pass that declares it. The simulation owns it from now on and releases it."""
@@ -214,10 +210,6 @@ class Simulation:
             raise ParameterError(f"steps must be >= 0, got {steps}")
         for _ in range(steps):
             self.step()
-
-    def finish(self):
-        """Wait for the GPU (for timings)."""
-        self.ctx.mgl.finish()
 
     def release(self):
         """Release the state textures (programs stay cached in the context); safe twice."""

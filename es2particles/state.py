@@ -13,10 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import packing
-from .context import FORMAT_DTYPES
+from .context import FORMAT_DTYPES, numpy_dtype
 from .errors import ParameterError, check_range
-
-READ_DTYPES = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}
 
 
 @dataclass(frozen=True)
@@ -42,11 +40,6 @@ class Quantity:
     def range_vec4(self):
         """vec4(lo.x, lo.y, span.x, span.y): the range uniform of ``lib/state.glsl``."""
         return packing.range_vec4(self.lo, self.hi)
-
-    def step(self, fmt="rgba8"):
-        """Grid step in world units per component (the packed format's quantisation)."""
-        span = np.subtract(self.hi, self.lo)
-        return span / packing.CODES_PER_UNIT if fmt == "rgba8" else np.zeros(2)
 
 
 def _pair(name, value):
@@ -137,18 +130,18 @@ class StateBuffer:
         texels = packing.state_encode(values, self.quantity.range_vec4, self.fmt)
         full = np.zeros((self.layout.width * self.layout.height, 4), dtype=texels.dtype)
         full[: self.layout.count] = texels
-        self.front.write(full.astype(READ_DTYPES[self.fmt]).tobytes())
+        self.front.write(full.astype(numpy_dtype(self.fmt)).tobytes())
 
     def write_texels(self, texels):
         """Write raw texel contents (count, 4) into the front texture, bypassing the encoder:
         how the stability suite injects NaN and Inf into float state."""
-        full = np.zeros((self.layout.width * self.layout.height, 4), dtype=READ_DTYPES[self.fmt])
+        full = np.zeros((self.layout.width * self.layout.height, 4), dtype=numpy_dtype(self.fmt))
         full[: self.layout.count] = texels
         self.front.write(full.tobytes())
 
     def read_texels(self):
         """Raw texel contents (count, 4) of the front texture."""
-        raw = np.frombuffer(self.front.read(), dtype=READ_DTYPES[self.fmt])
+        raw = np.frombuffer(self.front.read(), dtype=numpy_dtype(self.fmt))
         return raw.reshape(-1, 4)[: self.layout.count]
 
     def download(self):

@@ -44,6 +44,15 @@ def _backends():
     return ["egl", None]
 
 
+# Profiles to ask for, in order, with the GL version requested. A request for 3.0 names no
+# profile, and drivers answer it with their newest compatibility-profile context. There, points
+# that are not sprites follow the legacy point rules, which llvmpipe rasterises as rectangles:
+# 2^20 one-pixel points draw ~25% faster than through the quad path that core profiles force (every
+# point is a sprite in core GL and in ES). The core profile is the fallback.
+PROFILES = (("compatibility", 300), ("core", 330))
+MIN_GL_VERSION = 330  # what moderngl itself needs
+
+
 def open_context():
     """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install."""
     import moderngl
@@ -53,12 +62,19 @@ def open_context():
         kwargs = {"standalone": True}
         if backend:
             kwargs["backend"] = backend
-        try:
-            mgl = moderngl.create_context(**kwargs)
-        except Exception as error:  # the binding raises bare Exceptions with the loader's words
-            failures.append(f"{backend or 'default'}: {str(error).strip() or type(error).__name__}")
-            continue
-        return Context(mgl, backend or "default")
+        errors = []
+        for profile, version in PROFILES:
+            try:
+                mgl = moderngl.create_context(require=version, **kwargs)
+            except Exception as error:  # the binding raises bare Exceptions with the loader's words
+                errors.append(str(error).strip() or type(error).__name__)
+                continue
+            if mgl.version_code >= MIN_GL_VERSION:
+                return Context(mgl, backend or "default", profile)
+            errors.append(f"{profile} profile is GL {mgl.version_code}, below {MIN_GL_VERSION}")
+            mgl.release()
+        unique = list(dict.fromkeys(errors))  # a missing library fails both profiles alike
+        failures.append(f"{backend or 'default'}: " + "; ".join(unique))
     raise ContextError("no headless OpenGL context could be made; " + INSTALL_HINT
                        + "\n  tried: " + "\n  tried: ".join(failures))
 
@@ -68,6 +84,7 @@ class Capabilities:
     """What the context offers, checked once at start-up."""
 
     backend: str
+    profile: str
     vendor: str
     renderer: str
     version: str
@@ -78,10 +95,16 @@ class Capabilities:
     blendable: dict = field(default_factory=dict)  # format -> additive blending works into it
     store_rule: str = "unknown"  # how the driver turns a float into a byte: round/truncate/...
 
+    @property
+    def software_rasteriser(self):
+        """True for a CPU rasteriser that bins a whole draw before rasterising it (llvmpipe,
+        softpipe): large point draws are cut into slices there (see render.py)."""
+        return any(name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast"))
+
     def lines(self):
         """The report as (label, value) rows."""
-        rows = [("backend", self.backend), ("vendor", self.vendor), ("renderer", self.renderer),
-                ("GL version", self.version), ("max texture size", self.max_texture_size),
+        rows = [("backend", self.backend), ("profile", self.profile), ("vendor", self.vendor),
+                ("renderer", self.renderer), ("GL version", self.version), ("max texture size", self.max_texture_size),
                 ("max particles (max texture size squared)", self.max_texture_size ** 2),
                 ("vertex texture image units", self.max_vertex_texture_units),
                 ("point size range", "%g..%g" % tuple(self.point_size_range))]
@@ -103,9 +126,11 @@ def _yes(flag):
 class Context:
     """A headless GL context and the one owner of the GL objects made through it."""
 
-    def __init__(self, mgl, backend="egl"):
+    def __init__(self, mgl, backend="egl", profile="core"):
         self.mgl = mgl
         self.backend = backend
+        self.profile = profile
+        self._gl_flush = None
         self._owned = []
         self._programs = {}
         self._caps = None
@@ -115,6 +140,20 @@ class Context:
         """Make this context the thread's current one (needed when several are open: GL calls go
         to whichever context was made current last)."""
         self.mgl.__enter__()
+
+    def flush(self):
+        """glFlush: hand the queued GL work to the driver without waiting for it to finish.
+
+        moderngl has no call for it, so it comes through moderngl's own GL function loader; where
+        that loader is not there, this does nothing (a flush changes speed, never results).
+        """
+        if self._gl_flush is None:
+            import ctypes
+
+            loader = getattr(self.mgl.mglo, "_context", None)
+            address = loader.load_opengl_function("glFlush") if loader is not None else 0
+            self._gl_flush = ctypes.CFUNCTYPE(None)(address) if address else (lambda: None)
+        self._gl_flush()
 
     # -- ownership ---------------------------------------------------------------------------
 
@@ -224,6 +263,7 @@ def _probe(ctx):
     info = mgl.info
     caps = Capabilities(
         backend=ctx.backend,
+        profile=ctx.profile,
         vendor=str(info.get("GL_VENDOR", "?")),
         renderer=str(info.get("GL_RENDERER", "?")),
         version=str(info.get("GL_VERSION", "?")),

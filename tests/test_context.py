@@ -14,7 +14,8 @@ def test_capabilities_are_reported(gl):
     assert caps.renderable["rgba8"] and caps.blendable["rgba8"]
     assert caps.store_rule in ("round-to-nearest", "truncate", "floor256")
     text = str(caps)
-    for label in ("renderer", "max texture size", "vertex texture image units",
+    assert caps.profile in ("compatibility", "core")
+    for label in ("profile", "renderer", "max texture size", "vertex texture image units",
                   "rgba16f render target / additive blend", "8-bit store of a float channel"):
         assert label in text
 
@@ -42,7 +43,28 @@ def test_forced_backend_is_tried_alone(monkeypatch):
     monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
     with pytest.raises(ContextError):
         context_module.open_context()
-    assert tried == ["egl"]
+    assert set(tried) == {"egl"}  # once for each profile, no other back-end
+
+
+def test_core_profile_is_the_fallback(monkeypatch):
+    """A driver that refuses a compatibility context, or gives one older than GL 3.3, gets core."""
+    real = moderngl.create_context
+    asked = []
+
+    def refuse_compatibility(require=None, **kwargs):
+        asked.append(require)
+        if require < context_module.MIN_GL_VERSION:
+            raise Exception("no compatibility profile here")
+        return real(require=require, **kwargs)
+
+    monkeypatch.setattr(moderngl, "create_context", refuse_compatibility)
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
+    ctx = context_module.open_context()
+    try:
+        assert ctx.profile == "core" and asked == [300, 330]
+        assert "Core Profile" in ctx.caps.version or "Mesa" not in ctx.caps.version
+    finally:
+        ctx.release()
 
 
 def test_context_releases_everything_and_twice_is_safe():

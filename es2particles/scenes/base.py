@@ -1,7 +1,5 @@
 """What a scene tells the rest of the package: its pass graph, outputs, start and view."""
 
-import numpy as np
-
 
 class Scene:
     """Base of the scenes. A scene is plain data plus a graph: no GL of its own."""
@@ -46,8 +44,3 @@ class Scene:
 
     def before_frame(self, sim, frame, frames):
         """Set per-frame uniforms (animation); ``frame`` counts from 0 to ``frames - 1``."""
-
-
-def uniform_start(count, lo, hi, rng):
-    """``count`` points drawn uniformly from the rectangle [lo, hi] (float64)."""
-    return rng.uniform(np.asarray(lo, float), np.asarray(hi, float), size=(count, 2))

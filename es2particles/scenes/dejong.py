@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import check_range
 from ..graph import PassGraph
-from .base import Scene, uniform_start
+from .base import Scene
 
 ARTICLE_COEFFICIENTS = (1.4, -2.3, 2.4, -2.1)
 RANGE = 2.0
@@ -90,7 +90,7 @@ class DeJong(Scene):
 
     def initialise(self, sim, rng):
         if not self.reseed:
-            sim.upload("position", uniform_start(sim.count, (-RANGE, -RANGE), (RANGE, RANGE), rng))
+            sim.fill_uniform("position", (-RANGE, -RANGE), (RANGE, RANGE), rng)
 
     def coefficients_at(self, frame, frames):
         if self.animate_to is None or frames <= 1:

@@ -55,16 +55,41 @@ def _umask():
     return mask
 
 
-def save_image(pixels, path, compress_level=1):
-    """Write an (h, w, 3) uint8 image as PNG.
+def encode_png(pixels, compress_level=1):
+    """PNG file bytes of an (h, w, 3) uint8 image: 8-bit RGB, rows unfiltered, deflated.
 
-    Deflate level 1 by default: at 1024x1024 it encodes in ~31 ms against ~84 ms at pillow's
-    default 6, for files about 40% larger (still lossless); pass 6 to trade back.
+    Written here rather than through pillow for speed: pillow tries every row filter, which is
+    most of its 43 ms for a 1024x1024 frame at level 1. Unfiltered rows deflate in ~17 ms, and
+    for these pictures (large dark regions, smooth ramps) to smaller files too: 453 against
+    639 KB for the de Jong frame. Tests decode the result with pillow.
     """
-    from PIL import Image
+    import struct
+    import zlib
 
-    image = Image.fromarray(np.asarray(pixels, dtype=np.uint8), "RGB")
-    return _atomic(path, lambda tmp: image.save(tmp, format="PNG", compress_level=compress_level))
+    pixels = np.asarray(pixels)
+    if pixels.dtype != np.uint8 or pixels.ndim != 3 or pixels.shape[2] != 3:
+        raise ParameterError(f"an image must be (h, w, 3) uint8, got {pixels.shape} {pixels.dtype}")
+    h, w, _ = pixels.shape
+    rows = np.zeros((h, 1 + 3 * w), dtype=np.uint8)  # each row: filter type 0 (none), pixels
+    rows[:, 1:] = pixels.reshape(h, 3 * w)
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data)))
+
+    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8 bits, truecolour, no interlace
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(rows.tobytes(), compress_level)) + chunk(b"IEND", b""))
+
+
+def save_image(pixels, path, compress_level=1):
+    """Write an (h, w, 3) uint8 image as PNG (see :func:`encode_png`).
+
+    Deflate level 1 by default: ~17 ms at 1024x1024 against ~120 ms for pillow's default level 6;
+    pass 9 for the smallest file.
+    """
+    data = encode_png(pixels, compress_level)
+    return _atomic(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def save_animation(frames, path, fps=30):

@@ -1,5 +1,7 @@
 """The command line: images, animations, saved state, plans, and clear errors with no partial file."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from PIL import Image
@@ -84,15 +86,28 @@ def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
 def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
     from es2particles import output
 
-    def explode(self, target, *args, **kwargs):
-        with open(target, "wb") as handle:  # half a file, then the failure
-            handle.write(b"\x89PNG")
+    def explode(self, data):
+        with open(self, "wb") as handle:  # half a file, then the failure
+            handle.write(data[: len(data) // 2])
         raise OSError("disk full")
 
-    monkeypatch.setattr(Image.Image, "save", explode)
+    monkeypatch.setattr(Path, "write_bytes", explode)
     with pytest.raises(OSError):
         output.save_image(np.zeros((4, 4, 3), np.uint8), tmp_path / "x.png")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (3, 5), (64, 96)])
+def test_png_decodes_to_the_same_pixels(tmp_path, shape):
+    from es2particles import output
+
+    pixels = np.random.default_rng(1).integers(0, 256, (*shape, 3), dtype=np.uint8)
+    path = output.save_image(pixels, tmp_path / "x.png")
+    with Image.open(path) as image:
+        assert image.mode == "RGB" and image.size == (shape[1], shape[0])
+        assert np.array_equal(np.asarray(image), pixels)
+    with pytest.raises(output.ParameterError, match=r"\(h, w, 3\) uint8"):
+        output.encode_png(pixels.astype(np.float32))
 
 
 def test_collision_run_saves_all_quantities_and_plan_lists_its_passes(tmp_path, capsys):

@@ -104,7 +104,8 @@ class Capabilities:
     def lines(self):
         """The report as (label, value) rows."""
         rows = [("backend", self.backend), ("profile", self.profile), ("vendor", self.vendor),
-                ("renderer", self.renderer), ("GL version", self.version), ("max texture size", self.max_texture_size),
+                ("renderer", self.renderer), ("GL version", self.version),
+                ("max texture size", self.max_texture_size),
                 ("max particles (max texture size squared)", self.max_texture_size ** 2),
                 ("vertex texture image units", self.max_vertex_texture_units),
                 ("point size range", "%g..%g" % tuple(self.point_size_range))]

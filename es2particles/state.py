@@ -143,12 +143,9 @@ class StateBuffer:
         unit = packing.clamp_unit(rng.random((self.layout.count, 2), dtype=np.float32) * scale
                                   + offset)
         if self.fmt == "rgba8":
-            texels = packing.pack2x16(unit)
+            self.write_texels(packing.pack2x16(unit))
         else:
-            texels = np.zeros((self.layout.count, 4), dtype=np.float32)
-            texels[:, :2] = q[:2] + unit * q[2:]
-            texels[:, 3] = 1
-        self.write_texels(texels)
+            self.write_texels(packing.state_encode(q[:2] + unit * q[2:], q, self.fmt))
 
     def write_texels(self, texels):
         """Write texel contents (count, 4) into the front texture as they are: the encoded values

@@ -17,10 +17,10 @@ from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS, dejong_map
 SIZE = (1024, 1024)
 
 
-def png_bytes(image, compress_level=6):
-    """PNG bytes; pillow's default level 6 is what a numpy + pillow user gets."""
+def png_bytes(image):
+    """PNG bytes with pillow's defaults (level 6): what a numpy + pillow user gets."""
     buffer = io.BytesIO()
-    Image.fromarray(image).save(buffer, format="PNG", compress_level=compress_level)
+    Image.fromarray(image).save(buffer, format="PNG")
     return buffer.getvalue()
 
 

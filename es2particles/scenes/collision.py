@@ -17,7 +17,7 @@ one per quantity, run the same ``particle_step()`` of ``lib/particle.glsl`` on l
 ``step_reference`` below is the float64 numpy twin of ``particle_step``.
 """
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -273,8 +273,3 @@ def step_reference(x, v, life, field, p):
     x[alive], v[alive] = xi, vi
     life[:, 0] += p.dt
     return x, v, life
-
-
-def with_physics(scene, **changes):
-    """A copy of ``scene`` with some physics changed (same field)."""
-    return Collision(physics=replace(scene.physics, **changes), field=scene.field)

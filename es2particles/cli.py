@@ -55,14 +55,17 @@ def _report(args):
 
 
 def _add_scene_commands(commands):
-    from .scenes import SCENES
+    from .scenes import installed_scenes
 
+    scenes_found = installed_scenes()
+    names = ", ".join(scenes_found)
     for command, text in (("run", "simulate a scene and write an image or animation"),
                           ("plan", "print the passes a scene runs and what it leaves out")):
-        parser = commands.add_parser(command, help=text)
+        parser = commands.add_parser(command, help=f"{text} (scenes: {names})",
+                                     description=f"{text}. Installed scenes: {names}.")
         scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
-        for name, scene in SCENES.items():
-            sub = scenes.add_parser(name, help=(scene.__doc__ or "").splitlines()[0])
+        for name, scene in scenes_found.items():
+            sub = scenes.add_parser(name, help=(scene.__doc__ or name).strip().splitlines()[0])
             _add_common_arguments(sub, command == "run")
             scene.add_arguments(sub)
             sub.set_defaults(handler=_run if command == "run" else _plan, scene_class=scene)
@@ -71,7 +74,7 @@ def _add_scene_commands(commands):
 def _add_common_arguments(parser, running):
     add = parser.add_argument
     add("--particles", type=int, default=None,
-        help="particle count (default: 2^20 for dejong, 2^17 for collision)")
+        help="particle count (default: the scene's; 2^20 for the attractors, 2^17 for collision)")
     add("--size", default="1024x1024", help="image size WxH (default 1024x1024)")
     add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f", "auto"],
         help="state storage format (default rgba8: 16-bit packed; auto: the most precise one "
@@ -88,10 +91,12 @@ def _add_common_arguments(parser, running):
     add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10]")
     add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
     add("--point-size", type=float, default=None,
-        help="point diameter in pixels (default: 1 for dejong, 2 for collision)")
+        help="point diameter in pixels (default: the scene's; 1 for the attractors, 2 for "
+             "collision)")
     add("--intensity", type=float, default=1.0, help="density each particle adds (default 1)")
     add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
-    add("--steps", type=int, default=None, help="simulation steps before the (first) frame")
+    add("--steps", type=int, default=None,
+        help="simulation steps before the (first) frame (default: the scene's)")
     if running:
         add("--out", required=True, help="output: .png image, or with --frames .webp/.gif/.png")
         add("--frames", type=int, default=1, help="frames of an animation (default 1: a still)")
@@ -101,6 +106,8 @@ def _add_common_arguments(parser, running):
 
 
 def _pipeline(ctx, args):
+    """The pipeline of the parsed arguments: only what the user typed is passed; every option
+    left out takes the scene's default, resolved once in Pipeline."""
     from .pipeline import Pipeline
     from .post import Bloom
 
@@ -108,11 +115,9 @@ def _pipeline(ctx, args):
     bloom = None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
                                              args.bloom_intensity)
     gradient = None if args.gradient == "none" else args.gradient
-    particles = scene.default_particles if args.particles is None else args.particles
-    point_size = scene.default_point_size if args.point_size is None else args.point_size
-    return scene, Pipeline(ctx, scene, particles, args.size, args.format, point_size,
+    return scene, Pipeline(ctx, scene, args.particles, args.size, args.format, args.point_size,
                            args.intensity, args.exposure, gradient, bloom, args.seed,
-                           args.rounding)
+                           args.rounding, args.steps)
 
 
 def _plan(args):
@@ -142,11 +147,9 @@ def _run(args):
                                                                    {".npz": "NPZ"})
     with open_context() as ctx:
         scene, pipeline = _pipeline(ctx, args)
-        steps = scene.default_steps if args.steps is None else args.steps
-        steps = int(check_range("steps", steps, 0, 10 ** 7, integer=True))
         with pipeline:
             scene.before_frame(pipeline.sim, 0, frames)
-            pipeline.step(steps)
+            pipeline.warm_up()
             if frames == 1:
                 save_image(pipeline.image(), out)
             else:

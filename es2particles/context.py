@@ -7,6 +7,7 @@ package makes, counts them, and releases them all on ``release()`` or at the end
 """
 
 import os
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -225,12 +226,36 @@ class Context:
     def buffer(self, data):
         return self.own(self.mgl.buffer(data))
 
-    def program(self, vertex, fragment, defines=None):
-        """Compiled program for the shader files and defines; compiled once, then cached."""
-        key = (str(vertex), str(fragment), tuple(sorted((defines or {}).items())))
+    def program(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None):
+        """Compiled program for the shader files, defines and generated preludes (see
+        ``bindings.py``); compiled once, then cached."""
+        key = (str(vertex), str(fragment), tuple(sorted((defines or {}).items())),
+               tuple(vertex_prelude or ()), tuple(fragment_prelude or ()))
         if key not in self._programs:
-            self._programs[key] = self.own(compile_program(self.mgl, vertex, fragment, defines))
+            self._programs[key] = self.own(compile_program(self.mgl, vertex, fragment, defines,
+                                                           vertex_prelude, fragment_prelude))
         return self._programs[key]
+
+    @contextmanager
+    def scope(self, framebuffer, blend=None, point_size=False):
+        """GL state for one draw: target ``framebuffer``, blending (None, ``"add"``: ONE, ONE, or
+        ``"over"``: premultiplied), program point size. Everything is switched off again on the
+        way out, also when an exception passes through."""
+        import moderngl
+
+        flags = moderngl.NOTHING
+        if blend is not None:
+            flags |= moderngl.BLEND
+        if point_size:
+            flags |= moderngl.PROGRAM_POINT_SIZE
+        framebuffer.use()
+        self.mgl.enable_only(flags)
+        if blend is not None:
+            self.mgl.blend_func = BLEND_FUNCTIONS[blend]
+        try:
+            yield
+        finally:
+            self.mgl.enable_only(moderngl.NOTHING)
 
     def vertex_array(self, program, content):
         return self.own(self.mgl.vertex_array(program, content))
@@ -240,6 +265,11 @@ class Context:
         if self._fullscreen is None:
             self._fullscreen = self.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4"))
         return self.vertex_array(program, [(self._fullscreen, "2f", "a_position")])
+
+    def group(self):
+        """A new :class:`Group`: the GL objects of one component, released together."""
+        return Group(self)
+
 
     # -- capabilities ------------------------------------------------------------------------
 
@@ -280,28 +310,22 @@ def _probe(ctx):
 
 def _draw_constant(ctx, fmt, colour, blend):
     """Render a constant colour into a 4x4 target of ``fmt`` (twice, blended, if ``blend``)."""
-    import moderngl
+    from .command import FullscreenCommand
 
-    tex = ctx.texture((4, 4), fmt)
-    fbo = ctx.framebuffer(tex)
-    prog = ctx.program("lib/fullscreen.vert", "lib/constant.frag")
-    vao = ctx.fullscreen(prog)
+    group = ctx.group()
     try:
-        fbo.use()
+        tex = group.texture((4, 4), fmt)
+        fbo = group.framebuffer(tex)
         fbo.clear(0, 0, 0, 0)
-        prog["u_colour"].value = tuple(colour)
-        if blend:
-            ctx.mgl.enable(moderngl.BLEND)
-            ctx.mgl.blend_func = moderngl.ONE, moderngl.ONE
-        vao.render(moderngl.TRIANGLES)
-        if blend:
-            vao.render(moderngl.TRIANGLES)
-            ctx.mgl.disable(moderngl.BLEND)
+        command = FullscreenCommand(group, "lib/constant.frag", "format probe")
+        command.set("u_colour", tuple(colour))
+        for _ in range(2 if blend else 1):
+            command.draw(fbo, {}, blend="add" if blend else None)
         components = TEXTURE_FORMATS[fmt][0]
         texel = np.frombuffer(tex.read(), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
         return np.resize(texel.astype(np.float64), 4)  # r32f: only .r is meaningful
     finally:
-        ctx.free(vao, fbo, tex)
+        group.release()
 
 
 def _probe_format(ctx, fmt):
@@ -331,3 +355,39 @@ def _probe_store_rule(ctx):
         if np.array_equal(store_unorm8(colour, rule), got):
             return "round-to-nearest" if rule == "round" else rule
     return "unknown (bytes %s)" % got.astype(int).tolist()
+
+
+BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
+
+
+class Group:
+    """The GL objects one component (a simulation, a renderer, a post chain) makes: made through
+    the context, which counts them, and released together by one ``release()`` (safe twice; a
+    component whose constructor fails releases its group before it re-raises)."""
+
+    def __init__(self, ctx):
+        self.ctx, self.objects = ctx, []
+
+    def _keep(self, obj):
+        self.objects.append(obj)
+        return obj
+
+    def texture(self, *args, **kwargs):
+        return self._keep(self.ctx.texture(*args, **kwargs))
+
+    def framebuffer(self, texture):
+        return self._keep(self.ctx.framebuffer(texture))
+
+    def buffer(self, data):
+        return self._keep(self.ctx.buffer(data))
+
+    def vertex_array(self, program, content):
+        return self._keep(self.ctx.vertex_array(program, content))
+
+    def fullscreen(self, program):
+        return self._keep(self.ctx.fullscreen(program))
+
+    def release(self):
+        if self.ctx.mgl is not None:
+            self.ctx.free(*reversed(self.objects))
+        self.objects = []

@@ -222,7 +222,9 @@ class CollisionField:
         self.shapes = tuple(shapes)
         self.distance, self.normal = union(parts)
         self.solid = self.distance < 0
-        self.range = packing.range_vec4(-self.max_distance, self.max_distance)
+        # The packed distance's range as the shader decodes it: (lo, lo, span, span).
+        self.range = (-self.max_distance, -self.max_distance, 2 * self.max_distance,
+                      2 * self.max_distance)
 
     def texels(self):
         """RGBA8 bytes (h, w, 4): packed distance in RG, normal in BA."""
@@ -260,11 +262,6 @@ class CollisionField:
     def exact_distance(self, p):
         """Float64 signed distance to the analytic shapes and the walls at points p (tests)."""
         return union([walls(p, self.rect)] + [s.sdf(p) for s in self.shapes])[0]
-
-    def upload(self, ctx):
-        """A NEAREST-sampled RGBA8 texture of the field, owned by ``ctx``."""
-        w, h = self.resolution
-        return ctx.texture((w, h), "rgba8", data=self.texels().tobytes())
 
 
 def memory_table(resolutions=((128, 128), (256, 256), (512, 512), (1024, 1024), (2048, 2048))):

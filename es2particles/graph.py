@@ -1,8 +1,10 @@
 """The pass graph: passes declare what they read and write; a plan orders and prunes them.
 
 Pure Python, no GL: a :class:`Plan` says which passes run in which order, which quantities get
-textures (two for ping-pong where last step's value is read, one where only this step's is), and
-what was left out because the requested outputs do not need it. ``simulation.py`` executes a plan.
+textures (two for ping-pong where last step's value is read, one where only this step's is; a
+quantity of three or four components in RGBA8 has two parts, each written by its own draw), which
+scene textures are sampled, and what was left out because the requested outputs do not need it.
+``simulation.py`` executes a plan.
 
 Reads are explicit about time, because the same name means two values during a step:
 
@@ -14,9 +16,10 @@ Reads are explicit about time, because the same name means two values during a s
 from dataclasses import dataclass, field
 from typing import Mapping, Tuple
 
+import numpy as np
+
 from .errors import GraphError, ParameterError
 from .state import Quantity
-
 
 @dataclass(frozen=True)
 class Pass:
@@ -31,12 +34,16 @@ class Pass:
     writes : str
         The quantity this pass writes, encoded with ``state_encode(value, u_out_range)``.
     reads, reads_new : tuple of str
-        Quantities read as last step's and this step's values; each is bound to the sampler
-        ``u_<name>`` with its range in ``u_<name>_range``.
+        Quantities read as last step's and this step's values: the shader calls ``read_<q>(uv)``.
+    textures : tuple of str
+        Scene textures (``PassGraph.texture``) the pass samples as ``u_<name>``.
     uniforms : mapping
-        Initial values of the pass's own uniforms (change them with ``Simulation.set_uniform``).
+        The pass's own uniforms and their first values; the graph declares each for the shader
+        (see ``bindings.py``), and ``Simulation.set_uniform`` changes them.
     defines : mapping
-        ``#define`` lines injected into the shader.
+        ``#define`` lines of this pass's variant: a pass carries all it needs.
+
+    The shader holds only its logic: the graph writes its declarations (``bindings.py``).
     """
 
     name: str
@@ -44,12 +51,16 @@ class Pass:
     writes: str
     reads: Tuple[str, ...] = ()
     reads_new: Tuple[str, ...] = ()
+    textures: Tuple[str, ...] = ()
     uniforms: Mapping = field(default_factory=dict)
     defines: Mapping = field(default_factory=dict)
 
     def __post_init__(self):
-        object.__setattr__(self, "reads", tuple(self.reads))
-        object.__setattr__(self, "reads_new", tuple(self.reads_new))
+        for name in ("reads", "reads_new", "textures"):
+            value = getattr(self, name)
+            object.__setattr__(self, name, (value,) if isinstance(value, str) else tuple(value))
+        object.__setattr__(self, "uniforms", dict(self.uniforms or {}))
+        object.__setattr__(self, "defines", dict(self.defines or {}))
         both = set(self.reads) & set(self.reads_new)
         if both:
             raise GraphError(f"pass {self.name!r} reads {sorted(both)} both as last step's and this "
@@ -65,29 +76,77 @@ class Plan:
 
     passes: list
     quantities: dict  # name -> Quantity, of the quantities that get textures
-    buffers: dict  # name -> 1 or 2 textures
+    buffers: dict  # name -> 1 or 2 textures per part
     outputs: tuple
     left_out_passes: list
     left_out_quantities: list
+    textures: dict = field(default_factory=dict)  # scene textures sampled: name -> array
+    left_out_textures: list = field(default_factory=list)
 
     @property
     def texture_count(self):
-        return sum(self.buffers.values())
+        """State textures in the baseline format (RGBA8): each part of each quantity, 1 or 2."""
+        return self.texture_count_in("rgba8")
 
-    def __str__(self):
+    def texture_count_in(self, fmt):
+        return sum(n * self.quantities[q].parts(fmt) for q, n in self.buffers.items())
+
+    def draws(self, fmt):
+        """(pass, part, parts) of each full-screen draw of a step, in order."""
+        out = []
+        for p in self.passes:
+            parts = self.quantities[p.writes].parts(fmt)
+            out += [(p, part, parts) for part in range(parts)]
+        return out
+
+    def describe(self, fmt="rgba8", layout=None):
+        """The plan as lines, with the draws and textures of storage format ``fmt`` and, given a
+        :class:`~es2particles.state.Layout`, the bytes of each texture."""
+        from .context import bytes_per_texel
+
+        texel_count = layout.width * layout.height if layout is not None else None
         lines = [f"outputs: {', '.join(self.outputs)}", "passes, in order:"]
-        for i, p in enumerate(self.passes, 1):
+        for i, (p, part, parts) in enumerate(self.draws(fmt), 1):
             reads = [f"{q} (last step)" for q in p.reads] + [f"{q} (this step)" for q in p.reads_new]
-            lines.append(f"  {i}. {p.name}: {p.frag} writes {p.writes}; reads "
+            reads += [f"texture {t}" for t in p.textures]
+            q = self.quantities[p.writes]
+            what = p.writes
+            if parts > 1:
+                what += f" part {part + 1}/{parts} ({q.part_axes(fmt, part)})"
+            lines.append(f"  {i}. {p.name}: {p.frag} writes {what}; reads "
                          f"{', '.join(reads) if reads else 'nothing'}")
-        lines.append(f"textures: {self.texture_count}")
+        per_particle = sum(n * self.quantities[q].bytes_per_particle(fmt)
+                           for q, n in self.buffers.items())
+        lines.append(f"state textures ({fmt}): {self.texture_count_in(fmt)}, {per_particle} bytes "
+                     "per particle")
         for name, n in self.buffers.items():
-            why = "ping-pong: last step's value is read" if n == 2 else "single: only this step's value is read"
-            lines.append(f"  {name}: {n} ({why})")
+            q = self.quantities[name]
+            why = ("ping-pong: last step's value is read" if n == 2
+                   else "single: only this step's value is read")
+            parts = q.parts(fmt)
+            count = f"{n}" if parts == 1 else f"{parts} parts x {n}"
+            size = ""
+            if texel_count is not None:
+                size = f", {_bytes(n * parts * texel_count * bytes_per_texel(fmt))}"
+            lines.append(f"  {name} ({q.components} components): {count} ({why}{size})")
+        for name, data in self.textures.items():
+            lines.append(f"  scene texture {name}: {data.shape[1]}x{data.shape[0]} {data.dtype}, "
+                         f"{_bytes(data.nbytes)}")
         left = [f"pass {p.name}" for p in self.left_out_passes]
         left += [f"quantity {q}" for q in self.left_out_quantities]
+        left += [f"texture {t}" for t in self.left_out_textures]
         lines.append("left out: " + (", ".join(left) if left else "nothing"))
-        return "\n".join(lines)
+        return lines
+
+    def __str__(self):
+        return "\n".join(self.describe())
+
+
+def _bytes(n):
+    for unit in ("bytes", "KiB", "MiB", "GiB"):
+        if n < 1024 or unit == "GiB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.3g} {unit}"
+        n /= 1024
 
 
 class PassGraph:
@@ -96,17 +155,39 @@ class PassGraph:
     def __init__(self):
         self.quantities = {}
         self.passes = []
+        self.textures = {}
 
-    def quantity(self, name, lo, hi):
-        """Declare a two-component quantity with world range [lo, hi]; returns it."""
+    def quantity(self, name, lo, hi, components=None):
+        """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
+        per component; ``components`` defaults to their length, else 2); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
-        self.quantities[name] = Quantity(name, lo, hi)
+        self.quantities[name] = Quantity(name, lo, hi, components)
         return self.quantities[name]
 
-    def add(self, *args, **kwargs):
-        """Add a :class:`Pass` (or build one from the same arguments); returns it."""
-        new = args[0] if args and isinstance(args[0], Pass) else Pass(*args, **kwargs)
+    def texture(self, name, data):
+        """Declare a scene texture: ``data`` is an (h, w, 4) uint8 or float32 array (a collision
+        field, a ramp). The simulation uploads it, samples it NEAREST and owns it; a pass that
+        lists ``name`` in ``textures=`` samples it as ``u_<name>``."""
+        if not (isinstance(name, str) and name.isidentifier()):
+            raise ParameterError(f"texture name must be a GLSL identifier, got {name!r}")
+        if name in self.textures:
+            raise GraphError(f"texture {name!r} is declared twice")
+        data = np.asarray(data)
+        if data.ndim != 3 or data.shape[2] != 4 or data.dtype not in (np.uint8, np.float32):
+            raise ParameterError(f"texture {name!r}: data must be an (h, w, 4) uint8 or float32 "
+                                 f"array, got shape {data.shape} {data.dtype}")
+        self.textures[name] = data
+        return data
+
+    def add(self, name, frag, writes, reads=(), reads_new=(), textures=(), uniforms=None,
+            defines=None):
+        """Add a :class:`Pass` built from these arguments (see :class:`Pass`); returns it."""
+        return self.add_pass(Pass(name, frag, writes, reads, reads_new, textures, uniforms or {},
+                                  defines or {}))
+
+    def add_pass(self, new):
+        """Add a :class:`Pass`; returns it."""
         for other in self.passes:
             if other.name == new.name:
                 raise GraphError(f"two passes are named {new.name!r}")
@@ -138,6 +219,7 @@ class PassGraph:
         used = {p.writes for p in ordered}
         last_step = {q for p in ordered for q in p.reads}
         buffers = {q: (2 if q in last_step else 1) for q in self.quantities if q in used}
+        sampled = {t for p in ordered for t in p.textures}
         return Plan(
             passes=ordered,
             quantities={q: self.quantities[q] for q in buffers},
@@ -145,7 +227,13 @@ class PassGraph:
             outputs=outputs,
             left_out_passes=[p for p in self.passes if p.name not in needed],
             left_out_quantities=[q for q in self.quantities if q not in buffers],
+            textures={t: data for t, data in self.textures.items() if t in sampled},
+            left_out_textures=[t for t in self.textures if t not in sampled],
         )
+
+    def uniform_names(self):
+        """Every uniform some pass of the graph declares (planned or not)."""
+        return {name for p in self.passes for name in p.uniforms}
 
     def _check(self):
         for p in self.passes:
@@ -158,6 +246,10 @@ class PassGraph:
                                      "quantity")
                 if self.writer(q) is None:
                     raise GraphError(f"pass {p.name!r} reads {q!r}, but no pass writes it")
+            for t in p.textures:
+                if t not in self.textures:
+                    raise GraphError(f"pass {p.name!r} samples texture {t!r}, which is not "
+                                     f"declared (declared: {', '.join(self.textures) or 'none'})")
 
     def _needed(self, outputs):
         """Names of the passes the outputs depend on, through either kind of read."""

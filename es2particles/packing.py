@@ -80,37 +80,52 @@ def unpack2x16(texel):
 
 # --- twins of lib/state.glsl ------------------------------------------------------------------
 
-def range_vec4(lo, hi):
-    """The vec4(lo.x, lo.y, span.x, span.y) uniform of a quantity, as float32."""
-    lo = np.broadcast_to(np.asarray(lo, dtype=np.float64), (2,))
-    hi = np.broadcast_to(np.asarray(hi, dtype=np.float64), (2,))
-    return np.concatenate([lo, hi - lo]).astype(F32)
+def parts(components, fmt):
+    """Textures one quantity of ``components`` values spans: RGBA8 holds two 16-bit values per
+    texel, a float format up to four."""
+    return -(-components // 2) if fmt == "rgba8" else 1
 
 
-def state_unit(value, rng):
-    """World values (..., 2) to [0, 1] (clamped, NaN to 0) for the range vec4 ``rng``."""
+def state_unit(value, lo, span):
+    """World values (..., c) to [0, 1] (clamped, NaN to 0) for per-component ``lo`` and ``span``."""
     value = np.asarray(value, dtype=F32)
     with np.errstate(invalid="ignore", over="ignore"):
-        return clamp_unit((value - rng[:2]) / rng[2:])
+        return clamp_unit((value - np.asarray(lo, F32)) / np.asarray(span, F32))
 
 
-def state_encode(value, rng, fmt="rgba8"):
-    """Texel contents for world values (..., 2): RGBA8 bytes, or float RGBA for float formats."""
-    unit = state_unit(value, rng)
+def state_clamp(value, lo, span):
+    """Float formats store the value itself, clamped into [lo, lo + span]; NaN gives lo, as
+    ``state_clamp`` in GLSL (hi is summed in float32 there too)."""
+    value, lo = np.asarray(value, dtype=F32), np.asarray(lo, F32)
+    hi = (lo + np.asarray(span, F32)).astype(F32)
+    with np.errstate(invalid="ignore"):
+        return np.where(value >= lo, np.minimum(value, hi), lo).astype(F32)
+
+
+def state_encode(value, lo, span, fmt="rgba8"):
+    """Texel contents (..., parts, 4) for world values (..., c) under nearest rounding: RGBA8
+    bytes, two values per texel (an odd last value pads with code 0), or float RGBA holding the
+    clamped values themselves (padded with 0)."""
+    value = np.asarray(value, dtype=F32)
+    c = value.shape[-1]
     if fmt == "rgba8":
-        return pack2x16(unit)
-    world = rng[:2] + unit * rng[2:]
-    out = np.zeros(world.shape[:-1] + (4,), dtype=F32)
-    out[..., :2] = world
-    out[..., 3] = 1
+        unit = state_unit(value, lo, span)
+        if c % 2:
+            unit = np.concatenate([unit, np.zeros(unit.shape[:-1] + (1,), F32)], axis=-1)
+        return pack16(unit).reshape(value.shape[:-1] + (parts(c, fmt), 4))
+    out = np.zeros(value.shape[:-1] + (1, 4), dtype=F32)
+    out[..., 0, :c] = state_clamp(value, lo, span)
     return out
 
 
-def state_decode(texel, rng, fmt="rgba8"):
-    """World values (..., 2) as float32 from texel contents (bytes for rgba8, floats otherwise)."""
+def state_decode(texels, lo, span, fmt="rgba8"):
+    """World values (..., c) as float32 from texel contents (..., parts, 4), c = len(lo)."""
+    c = len(lo)
+    texels = np.asarray(texels)
     if fmt == "rgba8":
-        return rng[:2] + unpack2x16(texel) * rng[2:]
-    return np.asarray(texel, dtype=F32)[..., :2]
+        unit = unpack16(texels.reshape(texels.shape[:-2] + (-1, 2)))[..., :c]
+        return (np.asarray(lo, F32) + unit * np.asarray(span, F32)).astype(F32)
+    return np.asarray(texels, dtype=F32)[..., 0, :c]
 
 
 # --- what the GL does between the shader and the texture --------------------------------------

@@ -6,7 +6,7 @@ only draws. Its :meth:`plan` prints what a frame runs and what was left out.
 
 import numpy as np
 
-from .errors import ParameterError, check_range
+from .errors import GraphError, ParameterError, check_range
 from .post import PostChain
 from .render import PointRenderer
 from .simulation import Simulation
@@ -28,18 +28,23 @@ def parse_size(text, max_size):
 
 
 class Pipeline:
-    """A scene's simulation, renderer and post chain on one context.
+    """A scene's whole frame on one context: simulation, renderer and post chain, one plan.
+
+    Every parameter left as None takes the scene's default (``scene.defaults``), resolved here
+    once; the renderer's reads are outputs of the simulation's plan, so a quantity the renderer
+    needs and no pass writes is an error before any GL work.
 
     Parameters
     ----------
     ctx : Context
     scene : Scene
-    particles : int
+    particles : int, optional
     size : (int, int) or str
         Image size; each side at most the context's max texture size.
     fmt : str
         State storage format.
-    point_size, intensity, exposure : float
+    point_size : float, optional
+    intensity, exposure : float
         Renderer and tone-curve settings.
     gradient : str or None
         Gradient-map ramp, or None to switch the gradient map off.
@@ -48,22 +53,35 @@ class Pipeline:
     seed : int
         Seed of the starting state: the same arguments give the same image on the same driver.
     rounding : str, optional
-        ``nearest`` or ``dither`` for packed state; default: the scene's choice.
+        ``nearest`` or ``dither`` for packed state.
+    steps : int, optional
+        Simulation steps before the first frame (``warm_up`` runs them).
     """
 
-    def __init__(self, ctx, scene, particles=2 ** 20, size=(1024, 1024), fmt="rgba8",
-                 point_size=1.0, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
-                 seed=0, rounding=None):
+    def __init__(self, ctx, scene, particles=None, size=(1024, 1024), fmt="rgba8",
+                 point_size=None, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
+                 seed=0, rounding=None, steps=None):
+        defaults = scene.defaults
         self.ctx, self.scene = ctx, scene
         self.size = parse_size(size, ctx.caps.max_texture_size)
         seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
+        steps = defaults.steps if steps is None else steps
+        self.steps = int(check_range("steps", steps, 0, 10 ** 7, integer=True))
+        graph = scene.graph()
+        for name in scene.render_reads:
+            if name not in graph.quantities or graph.writer(name) is None:
+                raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} "
+                                 f"{'declares but no pass writes' if name in graph.quantities else 'does not declare'}"
+                                 f" (its quantities: {', '.join(graph.quantities) or 'none'})")
         self.sim = self.renderer = self.post = None
         try:
-            self.sim = Simulation(ctx, scene.graph(), particles, outputs=scene.outputs, fmt=fmt,
-                                  defines=scene.defines(),
-                                  rounding=rounding or scene.default_rounding)
-            self.renderer = PointRenderer(ctx, self.sim.layout, self.size, scene.view,
-                                          self.sim.fmt, point_size, intensity, scene.fade_by_life)
+            self.sim = Simulation(ctx, graph, defaults.particles if particles is None else particles,
+                                  outputs=scene.render_reads, fmt=fmt,
+                                  rounding=defaults.rounding if rounding is None else rounding)
+            reads = {q: self.sim.plan.quantities[q] for q in scene.render_reads}
+            self.renderer = PointRenderer(
+                ctx, reads, self.sim.layout, self.size, scene.view, self.sim.fmt,
+                defaults.point_size if point_size is None else point_size, intensity)
             self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
                                   bloom, scene.background())
             scene.initialise(self.sim, np.random.default_rng(seed))
@@ -76,14 +94,17 @@ class Pipeline:
     def step(self, steps=1):
         self.sim.run(steps)
 
+    def warm_up(self):
+        """Run the steps before the first frame."""
+        self.sim.run(self.steps)
+
     def render(self):
         """Draw the particles and run the post passes; returns the final texture."""
-        position = self.sim.buffers[self.scene.outputs[0]]
-        life = self.sim.buffers.get("life")
         if not self._ordered:  # once: positions repeat from frame to frame (see render.py)
+            position = self.sim.buffers["position"]
             self.renderer.order_by_tiles(position.download(), self.scene.view)
             self._ordered = True
-        density = self.renderer.draw(position, life)
+        density = self.renderer.draw(self.sim.buffers)
         self.final = self.post.apply(density)
         return self.final
 
@@ -94,23 +115,23 @@ class Pipeline:
         return self.post.read(self.final)
 
     def state(self):
-        """Every simulated quantity, decoded to world units: name -> (N, 2) float64."""
+        """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
         return {name: self.sim.download(name) for name in self.sim.buffers}
 
     def plan(self):
-        """The printable plan of a frame: simulation passes, rendering, post, what was left out."""
-        sim, r = self.sim, self.renderer
+        """The printable plan of a frame: simulation passes, render and post stages, the memory
+        of each texture, and what was left out."""
+        sim = self.sim
         lines = [f"scene: {self.scene.name}; {sim.count} particles in {sim.layout.width}x"
                  f"{sim.layout.height} texels ({sim.layout.spare} spare, never drawn); "
                  f"state format {sim.format_note}"
-                 + (f", {sim.rounding} rounding" if sim.fmt == "rgba8" else ""),
+                 + (f", {sim.rounding} rounding" if sim.fmt == "rgba8" else "")
+                 + f"; {self.steps} steps before the first frame",
                  "simulation step:"]
-        lines += ["  " + line for line in str(sim.plan).splitlines()]
+        lines += ["  " + line for line in sim.describe()]
         lines += ["  " + line for line in self.scene.describe()]
         lines.append("frame:")
-        lines.append(f"  render: {sim.count} points, vertex texture fetch of "
-                     f"{self.scene.outputs[0]}, additive blend -> density {r.format_note} "
-                     f"{self.size[0]}x{self.size[1]}")
+        lines.append("  " + self.renderer.describe())
         lines += ["  " + line for line in self.post.describe()]
         left = self.post.left_out()
         lines.append("  left out: " + (", ".join(left) if left else "nothing"))

@@ -8,10 +8,11 @@ then bloom. Each is optional: a switched-off pass makes no texture and never run
 
 from dataclasses import dataclass
 
-import moderngl
 import numpy as np
 
+from .command import FullscreenCommand
 from .errors import check_range
+from .graph import _bytes
 from .ramps import load_ramp
 
 
@@ -45,28 +46,20 @@ def blur_taps(sigma, taps=12):
 
 
 class _Stage:
-    """One full-screen post pass: a program, its target, and the textures it samples."""
+    """One full-screen post pass: its command and the texture it renders into (``output``)."""
 
-    def __init__(self, ctx, frag, size, defines=None, fmt="rgba8"):
-        self.ctx = ctx
-        self.program = ctx.program("lib/fullscreen.vert", frag, defines)
-        self.vao = ctx.fullscreen(self.program)
-        self.target = ctx.texture(size, fmt, filter_nearest=False)
-        self.framebuffer = ctx.framebuffer(self.target)
+    def __init__(self, group, frag, size, name, defines=None, fmt="rgba8"):
+        self.command = FullscreenCommand(group, frag, f"post stage {name}", defines)
+        self.output = group.texture(size, fmt, filter_nearest=False)
+        self.framebuffer = group.framebuffer(self.output)
 
     def set(self, **uniforms):
-        for name, value in uniforms.items():
-            self.program[name].value = value
+        self.command.set_many(uniforms)
 
-    def run(self, *textures):
-        for unit, texture in enumerate(textures):
-            texture.use(unit)
-        self.framebuffer.use()
-        self.vao.render(moderngl.TRIANGLES)
-        return self.target
-
-    def release(self):
-        self.ctx.free(self.vao, self.framebuffer, self.target)
+    def run(self, **textures):
+        """Draw with ``textures`` bound by sampler name; returns the output texture."""
+        self.command.draw(self.framebuffer, textures)
+        return self.output
 
 
 class PostChain:
@@ -92,35 +85,32 @@ class PostChain:
         self.ctx, self.size = ctx, tuple(size)
         exposure = check_range("exposure", exposure, 1e-3, 1e3)
         self.gradient, self.bloom = gradient, bloom
-        self.stages = []
         ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
-        self.ramp = self.background = None
+        self.group = ctx.group()
+        self.stages = []
+        self.inputs = {}  # fixed textures of the tone map, by sampler name
         try:
-            defines, inputs = {}, []
+            defines = {}
             if ramp is not None:
-                self.ramp = ctx.texture((256, 1), "rgba8", data=ramp.tobytes(), filter_nearest=False)
+                self.inputs["u_ramp"] = self.group.texture((256, 1), "rgba8", data=ramp.tobytes(),
+                                                           filter_nearest=False)
                 defines["GRADIENT"] = None
-                inputs.append(("u_ramp", self.ramp))
             if background is not None:
                 h, w = background.shape[:2]
-                self.background = ctx.texture((w, h), "rgba8", data=np.ascontiguousarray(
-                    background, dtype=np.uint8).tobytes(), filter_nearest=False)
+                self.inputs["u_background"] = self.group.texture(
+                    (w, h), "rgba8", data=np.ascontiguousarray(background, np.uint8).tobytes(),
+                    filter_nearest=False)
                 defines["BACKGROUND"] = None
-                inputs.append(("u_background", self.background))
-            self.tonemap = self._stage("post/tonemap.frag", self.size, defines)
-            self.tonemap.set(u_density=0, u_mean=float(max(mean_density, 1e-12)),
-                             u_exposure=exposure)
-            for unit, (name, _) in enumerate(inputs, 1):
-                self.tonemap.set(**{name: unit})
-            self.tonemap_inputs = [texture for _, texture in inputs]
+            self.tonemap = self._stage("post/tonemap.frag", self.size, "tone map", defines)
+            self.tonemap.set(u_mean=float(max(mean_density, 1e-12)), u_exposure=exposure)
             if bloom is not None:
                 self._make_bloom(bloom)
         except Exception:
             self.release()
             raise
 
-    def _stage(self, frag, size, defines=None):
-        stage = _Stage(self.ctx, frag, size, defines)
+    def _stage(self, frag, size, name, defines=None):
+        stage = _Stage(self.group, frag, size, name, defines)
         self.stages.append(stage)
         return stage
 
@@ -129,29 +119,31 @@ class PostChain:
         self.levels = []
         for div in (2, 4):
             size = (max(1, w // div), max(1, h // div))
-            bright = self._stage("post/bright.frag", size)
-            bright.set(u_source=0, u_threshold=bloom.threshold)
-            blur_x = self._stage("post/blur.frag", size)
-            blur_y = self._stage("post/blur.frag", size)
+            bright = self._stage("post/bright.frag", size, f"bloom bright 1/{div}")
+            bright.set(u_threshold=bloom.threshold)
+            blur_x = self._stage("post/blur.frag", size, f"bloom blur x 1/{div}")
+            blur_y = self._stage("post/blur.frag", size, f"bloom blur y 1/{div}")
             # Sigma is in texels of each level, so the quarter level glows twice as wide.
             centre, pairs = blur_taps(bloom.radius)
-            blur_x.set(u_source=0, u_direction=(1 / size[0], 0.0), u_centre=centre, u_taps=pairs)
-            blur_y.set(u_source=0, u_direction=(0.0, 1 / size[1]), u_centre=centre, u_taps=pairs)
+            blur_x.set(u_direction=(1 / size[0], 0.0), u_centre=centre, u_taps=pairs)
+            blur_y.set(u_direction=(0.0, 1 / size[1]), u_centre=centre, u_taps=pairs)
             self.levels.append((bright, blur_x, blur_y))
-        self.composite = self._stage("post/composite.frag", self.size)
-        self.composite.set(u_source=0, u_bloom0=1, u_bloom1=2, u_intensity=bloom.intensity / 2)
+        self.composite = self._stage("post/composite.frag", self.size, "bloom composite")
+        self.composite.set(u_intensity=bloom.intensity / 2)
 
     def describe(self):
         """Lines for the printed plan: what runs, with its textures."""
         w, h = self.size
         ramp = f"gradient map '{self.gradient}'" if self.gradient is not None else "grey (no gradient map)"
-        under = " over the scene's objects" if self.background is not None else ""
-        lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h}"]
+        under = " over the scene's objects" if "u_background" in self.inputs else ""
+        lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h} ({_bytes(4 * w * h)})"]
         if self.bloom is not None:
             b = self.bloom
+            level_bytes = sum(3 * 4 * max(1, w // d) * max(1, h // d) for d in (2, 4))
             lines.append(f"bloom: bright pass (threshold {b.threshold:g}) + blur x/y at "
                          f"{w // 2}x{h // 2} and {w // 4}x{h // 4} (sigma {b.radius:g}), "
-                         f"composite (intensity {b.intensity:g})")
+                         f"composite (intensity {b.intensity:g}); rgba8 targets "
+                         f"{_bytes(level_bytes + 4 * w * h)}")
         return lines
 
     def left_out(self):
@@ -164,13 +156,14 @@ class PostChain:
 
     def apply(self, density):
         """Run the chain on the density texture; returns the final RGBA8 texture."""
-        image = self.tonemap.run(density, *self.tonemap_inputs)
+        image = self.tonemap.run(u_density=density, **self.inputs)
         if self.bloom is None:
             return image
         blurred = []
         for bright, blur_x, blur_y in self.levels:
-            blurred.append(blur_y.run(blur_x.run(bright.run(image))))
-        return self.composite.run(image, *blurred)
+            half = bright.run(u_source=image)
+            blurred.append(blur_y.run(u_source=blur_x.run(u_source=half)))
+        return self.composite.run(u_source=image, u_bloom0=blurred[0], u_bloom1=blurred[1])
 
     def read(self, texture):
         """An RGBA8 texture as an (h, w, 3) uint8 image, top row first."""
@@ -179,8 +172,5 @@ class PostChain:
         return pixels[::-1, :, :3].copy()
 
     def release(self):
-        for stage in self.stages:
-            stage.release()
-        self.stages = []
-        self.ctx.free(self.ramp, self.background)
-        self.ramp = self.background = None
+        self.group.release()
+        self.stages, self.inputs = [], {}

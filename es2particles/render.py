@@ -9,7 +9,11 @@ the ``count`` particles are in the buffer: spare texels are never drawn.
 import moderngl
 import numpy as np
 
+from .bindings import check_source, stage_interface
+from .context import bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
+from .graph import _bytes
+from .shaders import expand
 from .simulation import FORMAT_DEFINES
 
 # Accumulation formats in order of preference: float ones do not saturate, and one channel is a
@@ -42,6 +46,10 @@ class PointRenderer:
     Parameters
     ----------
     ctx : Context
+    quantities : mapping
+        The quantities the renderer reads (name -> Quantity): ``position`` (2 components), and
+        ``life`` (age, lifetime) to fade each particle by 1 - age/lifetime and skip unborn and
+        dead ones. These are the render stage's reads in the frame's plan.
     layout : Layout
         Where the particles sit in the state textures.
     size : (int, int)
@@ -54,8 +62,6 @@ class PointRenderer:
         Point diameter in pixels, within the context's point size range.
     intensity : float
         What one particle adds to its pixel (density units).
-    fade_by_life : bool
-        Scale each particle by 1 - age/lifetime from the ``life`` quantity; dead ones are not drawn.
     draw_slice : int or None
         Points per draw call, each followed by a flush; None: ``SOFTWARE_DRAW_SLICE`` on a CPU
         rasteriser, the whole count in one call otherwise.
@@ -64,11 +70,17 @@ class PointRenderer:
     they follow the legacy rules, where a point of size s covers a square of round(s) pixels.
     """
 
-    def __init__(self, ctx, layout, size, view, state_format="rgba8", point_size=1.0,
-                 intensity=1.0, fade_by_life=False, draw_slice=None):
+    READS = ("position", "life")  # what it can read; position is required
+
+    def __init__(self, ctx, quantities, layout, size, view, state_format="rgba8", point_size=1.0,
+                 intensity=1.0, draw_slice=None):
         if ctx.caps.max_vertex_texture_units < 1:
             raise CapabilityError("no support for vertex shader textures "
                                   "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0): cannot draw particles")
+        unknown = [q for q in quantities if q not in self.READS]
+        if "position" not in quantities or unknown:
+            raise ParameterError(f"the point renderer reads position and optionally life, got "
+                                 f"{list(quantities)}")
         lo, hi = ctx.caps.point_size_range
         self.point_size = check_range("point_size", point_size, lo, hi)
         self.intensity = check_range("intensity", intensity, 0)
@@ -76,6 +88,7 @@ class PointRenderer:
         if not (x1 > x0 and y1 > y0):
             raise ParameterError(f"view must have x1 > x0 and y1 > y0, got {view}")
         self.ctx, self.layout, self.size = ctx, layout, tuple(size)
+        self.reads = tuple(quantities)
         if draw_slice is None:
             draw_slice = SOFTWARE_DRAW_SLICE if ctx.caps.software_rasteriser else layout.count
         self.draw_slice = check_range("draw_slice", draw_slice, 1, integer=True)
@@ -83,24 +96,36 @@ class PointRenderer:
         # An 8-bit target saturates at 1: count in steps of 1/255 there, and say so in `scale`.
         self.scale = 1.0 if self.format != "rgba8" else 1.0 / 255.0
         defines = dict(FORMAT_DEFINES[state_format])
-        if fade_by_life:
+        if "life" in quantities:
             defines["AGE_FADE"] = None
-        self.fade_by_life = fade_by_life
-        self.program = ctx.program("points.vert", "points.frag", defines)
-        self.texels = ctx.buffer(layout.texel_uv().tobytes())
-        self.vao = ctx.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
-        self.target = ctx.texture(self.size, self.format, filter_nearest=False)
-        self.framebuffer = ctx.framebuffer(self.target)
-        self.program["u_position"].value = 0
-        if fade_by_life:
-            self.program["u_life"].value = 1
-        self.program["u_view"].value = (x0, y0, x1 - x0, y1 - y0)
-        self.program["u_point_size"].value = self.point_size
-        self.program["u_colour"].value = (self.intensity * self.scale,) * 4
-        # Float state formats do not decode through the range: the driver drops the uniform.
-        self._position_range = self.program.get("u_position_range", None)
-        self._life_range = self.program.get("u_life_range", None) if fade_by_life else None
-        self._ranges_for = None  # the quantities whose ranges the uniforms hold
+        uniforms = {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": self.point_size}
+        self.interface = stage_interface(self.reads, quantities, state_format, uniforms)
+        check_source(expand("points.vert", defines, self.interface.lines), self.interface,
+                     "the point renderer (points.vert)")
+        self.group = ctx.group()
+        try:
+            self.program = ctx.program("points.vert", "points.frag", defines,
+                                       vertex_prelude=self.interface.lines)
+            self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
+            for name, unit in self.units.items():
+                self.program[name].value = unit
+            for name, value in {**self.interface.fixed, **uniforms}.items():
+                if name in self.program:
+                    self.program[name].value = value
+            self.program["u_colour"].value = (self.intensity * self.scale,) * 4
+            self.texels = self.group.buffer(layout.texel_uv().tobytes())
+            self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
+            self.target = self.group.texture(self.size, self.format, filter_nearest=False)
+            self.framebuffer = self.group.framebuffer(self.target)
+        except Exception:
+            self.group.release()
+            raise
+
+    def describe(self):
+        w, h = self.size
+        return (f"render: {self.layout.count} points, vertex texture fetch of "
+                f"{' and '.join(self.reads)}, additive blend -> density {self.format_note} "
+                f"{w}x{h} ({_bytes(w * h * bytes_per_texel(self.format))})")
 
     @property
     def mean_density(self):
@@ -122,30 +147,19 @@ class PointRenderer:
         order = np.argsort(key, kind="stable")  # radix sort on 16-bit keys: ~8 ms at 2^20
         self.texels.write(self.layout.texel_uv()[order].tobytes())
 
-    def draw(self, position, life=None):
-        """Clear the target and draw every particle; ``position``/``life`` are StateBuffers."""
-        mgl = self.ctx.mgl
-        self.framebuffer.use()
-        self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-        mgl.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
-        mgl.blend_func = moderngl.ONE, moderngl.ONE
-        position.front.use(0)
-        if self.fade_by_life:
-            life.front.use(1)
-        quantities = (position.quantity, life.quantity if self.fade_by_life else None)
-        if quantities != self._ranges_for:  # set once, not every frame
-            for handle, quantity in zip((self._position_range, self._life_range), quantities):
-                if handle is not None and quantity is not None:
-                    handle.value = tuple(quantity.range_vec4)
-            self._ranges_for = quantities
-        count, step = self.layout.count, self.draw_slice
-        for first in range(0, count, step):
-            self.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)
-            if step < count:
-                self.ctx.flush()
-        mgl.disable(moderngl.BLEND)
+    def draw(self, buffers):
+        """Clear the target and draw every particle; ``buffers`` maps each read quantity to its
+        StateBuffer."""
+        for name, (kind, q, part, _) in self.interface.samplers.items():
+            buffers[q].fronts[part].use(self.units[name])
+        with self.ctx.scope(self.framebuffer, blend="add", point_size=True):
+            self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+            count, step = self.layout.count, self.draw_slice
+            for first in range(0, count, step):
+                self.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)
+                if step < count:
+                    self.ctx.flush()
         return self.target
 
     def release(self):
-        self.ctx.free(self.vao, self.texels, self.framebuffer, self.target)
-        self.vao = self.texels = self.framebuffer = self.target = None
+        self.group.release()

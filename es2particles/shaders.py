@@ -13,6 +13,8 @@ from pathlib import Path
 
 from .errors import ShaderError
 
+GENERATED = "<generated>"  # the origin of the lines bindings.py writes
+
 MAX_INCLUDE_DEPTH = 16
 _INCLUDE = re.compile(r'^\s*#\s*include\s+"([^"]+)"\s*$')
 _VERSION = re.compile(r"^\s*#\s*version\b")
@@ -61,9 +63,10 @@ class ExpandedSource:
         return None
 
 
-def expand(name, defines=None):
+def expand(name, defines=None, prelude=None):
     """Expand shader ``name`` with its includes and ``defines`` (a dict; a None value defines a bare
-    flag). Returns an :class:`ExpandedSource`."""
+    flag), and the ``prelude`` lines (the interface ``bindings.py`` writes; they may include
+    library files) between the defines and the file. Returns an :class:`ExpandedSource`."""
     path = find_shader(name)
     lines = path.read_text().splitlines()
     first = next((i for i, line in enumerate(lines) if line.strip()), None)
@@ -77,6 +80,8 @@ def expand(name, defines=None):
         text = f"#define {key}" if value is None else f"#define {key} {_glsl_literal(value)}"
         out.append((text, ("<defines>", 0)))
     seen = {path}
+    if prelude:
+        _paste(GENERATED, list(prelude), 0, out, seen, depth=0)
     _paste(path, lines, first + 1, out, seen, depth=0)
     return ExpandedSource("\n".join(t for t, _ in out) + "\n", tuple(o for _, o in out))
 
@@ -93,7 +98,8 @@ def _paste(path, lines, start, out, seen, depth):
         if depth >= MAX_INCLUDE_DEPTH:
             raise ShaderError(f"{path}:{number}: includes nest deeper than {MAX_INCLUDE_DEPTH}")
         try:
-            child = find_shader(include.group(1), near=path)
+            # Generated lines include library files only: nothing next to the user's file.
+            child = find_shader(include.group(1), near=None if path == GENERATED else path)
         except ShaderError as error:
             raise ShaderError(f"{path}:{number}: {error}") from None
         if child in seen:  # included once: a second include of a file is a no-op
@@ -129,7 +135,8 @@ def describe_log(log, source):
             described.append(raw.strip())
             continue
         file, line = origin
-        text = _source_line(file, line)
+        text = (source.text.splitlines()[int(match.group(1) or match.group(2)) - 1].strip()
+                if file == GENERATED else _source_line(file, line))
         described.append(f"{file}:{line}: {match.group(3).strip()}" + (f"\n    {line:4d} | {text}" if text else ""))
     return "\n".join(described)
 
@@ -141,14 +148,17 @@ def _source_line(file, line):
         return ""
 
 
-def compile_program(mgl, vertex, fragment, defines=None):
-    """Compile and link a moderngl program from library or user shader files.
+def compile_program(mgl, vertex, fragment, defines=None, vertex_prelude=None,
+                    fragment_prelude=None):
+    """Compile and link a moderngl program from library or user shader files, each with its
+    generated prelude (see :func:`expand`).
 
     Raises :class:`ShaderError` naming the file and line of each driver message.
     """
     import moderngl
 
-    vs, fs = expand(vertex, defines), expand(fragment, defines)
+    vs = expand(vertex, defines, vertex_prelude)
+    fs = expand(fragment, defines, fragment_prelude)
     try:
         return mgl.program(vertex_shader=vs.text, fragment_shader=fs.text)
     except moderngl.Error as error:

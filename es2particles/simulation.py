@@ -5,10 +5,11 @@ vertex arrays, and the uniform handles that are set per step. ``step()`` then on
 sets the step number and draws, pass by pass, and swaps the ping-pong buffers at the end.
 """
 
-import moderngl
 import numpy as np
 
-from .errors import ParameterError
+from .bindings import pass_interface, uniform_value
+from .command import FullscreenCommand
+from .errors import ParameterError, ShaderError
 from .state import Layout, StateBuffer
 
 FORMAT_DEFINES = {"rgba8": {"STATE_RGBA8": None}, "rgba16f": {"STATE_FLOAT": None},
@@ -30,76 +31,63 @@ def resolve_format(ctx, fmt):
     return fmt, fmt
 
 
-def _rectangle(lo, hi):
-    """(lo.x, lo.y, span.x, span.y) of a rectangle given by two corners, checked."""
-    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
-    if lo.shape != (2,) or hi.shape != (2,) or not np.all(np.isfinite([lo, hi])) \
+def _box(name, lo, hi, components):
+    """(lo, span) as float32 of the box [lo, hi] for a quantity of ``components``, checked."""
+    lo = np.broadcast_to(np.asarray(lo, dtype=float), (components,)) if np.ndim(lo) == 0 else np.asarray(lo, dtype=float)
+    hi = np.broadcast_to(np.asarray(hi, dtype=float), (components,)) if np.ndim(hi) == 0 else np.asarray(hi, dtype=float)
+    if lo.shape != (components,) or hi.shape != (components,) or not np.all(np.isfinite([lo, hi])) \
             or not np.all(hi >= lo):
-        raise ParameterError(f"lo and hi must be finite (x, y) pairs with hi >= lo, "
-                             f"got {lo.tolist()} and {hi.tolist()}")
-    return np.concatenate([lo, hi - lo])
+        raise ParameterError(f"fill of {name!r}: lo and hi must be finite, {components} numbers "
+                             f"each with hi >= lo, got {lo.tolist()} and {hi.tolist()}")
+    return lo.astype(np.float32), (hi - lo).astype(np.float32)
 
 
-class _BoundPass:
-    """A pass with its program, vertex array and uniform handles, ready to draw."""
+class _Draw:
+    """One full-screen draw of a pass: part ``part`` of the quantity it writes."""
 
-    def __init__(self, ctx, spec, buffers, layout, defines):
+    def __init__(self, group, spec, part, quantities, buffers, fmt, defines, layout, textures):
         self.spec = spec
-        self.program = ctx.program("lib/fullscreen.vert", spec.frag, {**defines, **spec.defines})
-        self.vao = ctx.fullscreen(self.program)
-        self.target = buffers[spec.writes]
-        # Samplers: (texture unit, buffer, this step's value?) in a fixed order.
-        self.inputs = []
-        for unit, (name, new) in enumerate([(q, False) for q in spec.reads]
-                                           + [(q, True) for q in spec.reads_new]):
-            self._set(f"u_{name}", unit)
-            self._set(f"u_{name}_range", tuple(buffers[name].quantity.range_vec4))
-            self.inputs.append((unit, buffers[name], new))
-        self._set("u_out_range", tuple(self.target.quantity.range_vec4))
-        self._set("u_state_size", (float(layout.width), float(layout.height)))
-        self._set("u_count", float(layout.count))
-        self.step_uniform = self._handle("u_step")
-        self.extra = []  # (unit, texture) of textures that are not quantities, e.g. a field
+        self.interface = pass_interface(spec, quantities, fmt, part)
+        stage = f"pass {spec.name!r}" + (f" (part {part + 1})" if part else "")
+        try:
+            self.command = FullscreenCommand(group, spec.frag, stage, defines, self.interface)
+        except ShaderError as error:
+            raise ShaderError(f"{error}\n  (the graph declares for {stage}: "
+                              f"{', '.join(sorted(self.interface.names))})") from None
+        cmd = self.command
+        for name, (kind, what) in ((n, v[:2]) for n, v in self.interface.samplers.items()):
+            call = f"read_{what}" if kind == "quantity" else name
+            if not cmd.uses(call):
+                raise ParameterError(f"{cmd.where()} declares it reads {kind} {what!r} but its "
+                                     f"shader never uses {call}")
+        cmd.check_fed(self.interface.samplers)
+        for name, value in self.interface.fixed.items():
+            if cmd.has(name):
+                cmd.program[name].value = value
+        for name, value in (("u_state_size", (float(layout.width), float(layout.height))),
+                            ("u_count", float(layout.count))):
+            if cmd.has(name):
+                cmd.program[name].value = value
         for name, value in spec.uniforms.items():
             self.set_uniform(name, value)
-
-    def attach(self, name, texture):
-        """Bind ``texture`` to sampler ``name`` if this pass declares it."""
-        if self._handle(name) is None:
-            return False
-        unit = len(self.inputs) + len(self.extra)
-        self._set(name, unit)
-        self.extra.append((unit, texture))
-        return True
-
-    def _handle(self, name):
-        return self.program[name] if name in self.program else None
-
-    def _set(self, name, value):
-        handle = self._handle(name)
-        if handle is not None:
-            handle.value = value
+        self.step_uniform = cmd.program["u_step"] if cmd.has("u_step") else None
+        self.written, self.part = buffers[spec.writes], part  # its target swaps each step
+        # (sampler, buffer, part, this step?) of quantities; fixed textures by sampler name
+        self.inputs = [(s, buffers[q], k, new) for s, (kind, q, k, new) in
+                       ((s, v) for s, v in self.interface.samplers.items() if v[0] == "quantity")]
+        self.fixed_textures = {s: textures[v[1]] for s, v in self.interface.samplers.items()
+                               if v[0] == "texture"}
 
     def set_uniform(self, name, value):
-        handle = self._handle(name)
-        if handle is None:
-            return False
-        try:
-            handle.value = value
-        except Exception as error:
-            raise ParameterError(f"uniform {name} of pass {self.spec.name!r}: cannot take "
-                                 f"{value!r} ({error})") from None
-        return True
+        self.command.set(name, uniform_value(name, value, self.interface.uniforms[name]))
 
     def draw(self, step):
-        for unit, buffer, new in self.inputs:
-            (buffer.written if new else buffer.front).use(unit)
-        for unit, texture in self.extra:
-            texture.use(unit)
+        textures = dict(self.fixed_textures)
+        for sampler, buffer, part, new in self.inputs:
+            textures[sampler] = (buffer.written if new else buffer.fronts)[part]
         if self.step_uniform is not None:
             self.step_uniform.value = float(step)
-        self.target.target.use()
-        self.vao.render(moderngl.TRIANGLES)
+        self.command.draw(self.written.framebuffer(self.part), textures)
 
 
 class Simulation:
@@ -125,32 +113,35 @@ class Simulation:
         of particle and step: deterministic, unbiased, so sub-code changes are not lost).
     """
 
-    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", defines=None,
-                 rounding="nearest"):
+    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):
         if rounding not in ROUNDINGS:
             raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
-        self.ctx, self.rounding = ctx, rounding
+        self.ctx, self.rounding, self.graph = ctx, rounding, graph
         self.plan = graph.plan(outputs)
         self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
         self.fmt, self.format_note = resolve_format(ctx, fmt)
-        fmt = self.fmt
         self.steps_done = 0
-        self.attached = []
-        self.buffers = {}
-        self.passes = []
+        self.group = ctx.group()
+        self.buffers, self.draws, self.textures = {}, [], {}
         try:
             for name, n in self.plan.buffers.items():
-                self.buffers[name] = StateBuffer(ctx, self.plan.quantities[name], self.layout,
-                                                 fmt, n)
-            all_defines = {**FORMAT_DEFINES[fmt], **(defines or {})}
-            if rounding == "dither" and fmt == "rgba8":
-                all_defines["STATE_DITHER"] = None
-            self.passes = [_BoundPass(ctx, p, self.buffers, self.layout, all_defines)
-                           for p in self.plan.passes]
+                self.buffers[name] = StateBuffer(self.group, self.plan.quantities[name],
+                                                 self.layout, self.fmt, n)
+            for name, data in self.plan.textures.items():
+                h, w = data.shape[:2]
+                fmt = "rgba8" if data.dtype == np.uint8 else "rgba32f"
+                self.textures[name] = self.group.texture((w, h), fmt, data=data.tobytes())
+            defines = dict(FORMAT_DEFINES[self.fmt])
+            if rounding == "dither" and self.fmt == "rgba8":
+                defines["STATE_DITHER"] = None
+            for spec, part, _ in self.plan.draws(self.fmt):
+                self.draws.append(_Draw(self.group, spec, part, graph.quantities, self.buffers,
+                                        self.fmt, {**defines, **spec.defines}, self.layout,
+                                        self.textures))
         except Exception:
             self.release()
             raise
-        self._swapped = [b for name, b in self.buffers.items() if len(b.textures) == 2]
+        self._swapped = [b for b in self.buffers.values() if b.ping_pong]
 
     @property
     def count(self):
@@ -163,58 +154,57 @@ class Simulation:
         return self.buffers[name]
 
     def upload(self, name, values):
-        """Set quantity ``name`` to world values of shape (count, 2)."""
+        """Set quantity ``name`` to world values of shape (count, components)."""
         self._buffer(name).upload(values)
 
     def fill_uniform(self, name, lo, hi, rng):
-        """Set quantity ``name`` to points drawn uniformly from the rectangle [lo, hi] (clamped to
-        its range) by numpy generator ``rng``: a run's usual start, several times cheaper than
-        ``upload`` of the same points (see ``StateBuffer.fill_uniform``)."""
-        self._buffer(name).fill_uniform(_rectangle(lo, hi), rng)
+        """Set quantity ``name`` to values drawn uniformly from the box [lo, hi] (one bound per
+        component, clamped to its range) by numpy generator ``rng``: a run's usual start, several
+        times cheaper than ``upload`` of the same values (see ``StateBuffer.fill_uniform``)."""
+        buffer = self._buffer(name)
+        lo, span = _box(name, lo, hi, buffer.quantity.components)
+        buffer.fill_uniform(lo, span, rng)
 
     def download(self, name):
-        """World values (count, 2), float64, of quantity ``name`` after the last step."""
+        """World values (count, components), float64, of quantity ``name`` after the last step."""
         return self._buffer(name).download()
 
-    def attach_texture(self, name, texture):
-        """Bind a texture that is not a quantity (a collision field, say) to sampler ``name`` of
-        every pass that declares it. The simulation owns it from now on and releases it."""
-        self.attached.append(texture)
-        if not any([p.attach(name, texture) for p in self.passes]):
-            raise ParameterError(f"no pass of this plan has a sampler named {name!r}")
-
     def set_uniform(self, name, value):
-        """Set uniform ``name`` on every pass whose shader declares it."""
-        if not any([p.set_uniform(name, value) for p in self.passes]):
-            raise ParameterError(f"no pass of this plan has a uniform named {name!r}")
+        """Set uniform ``name`` on every planned pass that declares it. The name must be declared
+        by some pass of the graph (``uniforms=``); a pass the plan left out is skipped."""
+        known = self.graph.uniform_names()
+        if name not in known:
+            raise ParameterError(f"no pass of this graph declares a uniform {name!r} (declared: "
+                                 f"{', '.join(sorted(known)) or 'none'})")
+        for draw in self.draws:
+            if name in draw.spec.uniforms:
+                draw.set_uniform(name, value)
 
     def set_uniforms(self, values):
-        """Set several uniforms; names no planned pass declares are passed over (a pruned pass
-        may have been the only one to use them)."""
+        """Set several uniforms (each as :meth:`set_uniform`)."""
         for name, value in values.items():
-            for bound in self.passes:
-                bound.set_uniform(name, value)
+            self.set_uniform(name, value)
 
     def non_finite(self, name):
         """Particles whose ``name`` holds NaN or Inf (only float formats can store them)."""
-        values = self._buffer(name).read_texels()[:, :2]
+        buffer = self._buffer(name)
+        values = buffer.read_texels()[:, 0, : buffer.quantity.components]
         if values.dtype == np.uint8:
             return 0
         return int(np.count_nonzero(~np.isfinite(values.astype(np.float64)).all(axis=1)))
 
     def clamped(self, name):
-        """Particles whose ``name`` sits on an edge of its range, per component (N,) x 2: how
-        many values were clamped on write (a value is clamped, never wrapped)."""
+        """How many particles sit on an edge of ``name``'s range, per component: how many values
+        were clamped on write (a value is clamped, never wrapped)."""
         values = self.download(name)
         q = self.buffers[name].quantity
         return [int(np.count_nonzero((values[:, k] <= q.lo[k]) | (values[:, k] >= q.hi[k])))
-                for k in range(2)]
+                for k in range(q.components)]
 
     def step(self):
-        """Run every planned pass once, then make this step's values the front ones."""
-        self.ctx.mgl.disable(moderngl.BLEND)
-        for bound in self.passes:
-            bound.draw(self.steps_done)
+        """Run every planned draw once, then make this step's values the front ones."""
+        for draw in self.draws:
+            draw.draw(self.steps_done)
         for buffer in self._swapped:
             buffer.swap()
         self.steps_done += 1
@@ -227,14 +217,15 @@ class Simulation:
         for _ in range(steps):
             self.step()
 
+    def describe(self):
+        """The plan as lines, with this simulation's format and texture sizes."""
+        return self.plan.describe(self.fmt, self.layout)
+
     def release(self):
-        """Release the state textures (programs stay cached in the context); safe twice."""
-        for bound in self.passes:
-            self.ctx.free(bound.vao)
-        for buffer in self.buffers.values():
-            buffer.release()
-        self.ctx.free(*self.attached)
-        self.passes, self.buffers, self._swapped, self.attached = [], {}, [], []
+        """Release the state and scene textures (programs stay cached in the context); safe
+        twice."""
+        self.group.release()
+        self.draws, self.buffers, self._swapped, self.textures = [], {}, [], {}
 
     def __enter__(self):
         return self

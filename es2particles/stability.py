@@ -134,7 +134,7 @@ def non_finite(ctx, fmt):
 
 def dejong_extreme(ctx, coefficients):
     scene = DeJong(coefficients)
-    with Simulation(ctx, scene.graph(), 4096, defines=scene.defines()) as sim:
+    with Simulation(ctx, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(2))
         start = sim.download("position")
         start[:4] = [[2, 2], [-2, -2], [2, -2], [-2, 2]]
@@ -157,13 +157,14 @@ def sizes(ctx, largest):
     counts = [1, 2 ** 20 - 12345] + ([limit ** 2] if largest else [])
     for n in counts:
         scene = DeJong(reseed=True)
-        with Simulation(ctx, scene.graph(), n, defines=scene.defines()) as sim:
+        with Simulation(ctx, scene.graph(), n) as sim:
             sim.step()
             texels = sim.buffers["position"].read_texels()
             pick = np.random.default_rng(0).choice(n, size=min(n, 10 ** 6), replace=False)
             from .packing import state_decode
 
-            got = state_decode(texels[pick], sim.buffers["position"].quantity.range_vec4)
+            q = sim.buffers["position"].quantity
+            got = state_decode(texels[pick], q.lo32, q.span32)
             uv = np.stack([(pick % sim.layout.width + 0.5) / sim.layout.width,
                            (pick // sim.layout.width + 0.5) / sim.layout.height], 1)
         exact = np.clip(dejong_map(-2 + 4 * uv, scene.coefficients, 3), -2, 2)
@@ -188,7 +189,7 @@ def grid_cycles(ctx, count, steps):
     cases, figures = [], {}
     for rounding in ("nearest", "dither"):
         scene = DeJong()
-        with Simulation(ctx, scene.graph(), count, defines=scene.defines(), rounding=rounding) as sim:
+        with Simulation(ctx, scene.graph(), count, rounding=rounding) as sim:
             sim.upload("position", start)
             sim.run(steps)
             p = sim.download("position")

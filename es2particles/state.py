@@ -1,10 +1,12 @@
-"""Particle state in textures: named two-component quantities, their layout, double buffering.
+"""Particle state in textures: named quantities of 1 to 4 components, their layout, ping-pong.
 
-One quantity (position, velocity, ...) is two numbers per particle in one texture, one texel per
+One quantity (position, velocity, colour, ...) is 1 to 4 numbers per particle, one texel per
 particle. In the default ``rgba8`` format each number is 16-bit fixed point over the quantity's
-declared world range [lo, hi] (see ``packing.py``); ``rgba16f``/``rgba32f`` store world values as
-they are. Particle i lives at texel (i mod width, i div width); texels past the particle count are
-spare: they are computed like the others but never drawn or downloaded.
+declared world range [lo, hi] (see ``packing.py``), two numbers to a texel, so a quantity of three
+or four components spans two textures (its *parts*); ``rgba16f``/``rgba32f`` store the values
+themselves, clamped into the range, up to four in one texture. Particle i lives at texel
+(i mod width, i div width); texels past the particle count are spare: they are computed like the
+others but never drawn or downloaded.
 """
 
 import math
@@ -13,39 +15,84 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import packing
-from .context import FORMAT_DTYPES, numpy_dtype
+from .context import bytes_per_texel, numpy_dtype
 from .errors import ParameterError, check_range
+
+FORMATS = ("rgba8", "rgba16f", "rgba32f")
+AXES = "xyzw"
 
 
 @dataclass(frozen=True)
 class Quantity:
-    """A named per-particle quantity of two components with a world range [lo, hi] per component."""
+    """A named per-particle quantity of 1 to 4 components with a world range [lo, hi] each.
+
+    ``lo`` and ``hi`` are numbers (the same for every component) or sequences of one number per
+    component; ``components`` defaults to their length, or 2 where both are numbers.
+    """
 
     name: str
     lo: tuple
     hi: tuple
+    components: int = None
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
             raise ParameterError(f"quantity name must be a GLSL identifier, got {self.name!r}")
-        lo, hi = _pair(f"{self.name}.lo", self.lo), _pair(f"{self.name}.hi", self.hi)
-        for axis in range(2):
+        given = [len(v) for v in (self.lo, self.hi) if np.ndim(v) == 1]
+        components = self.components if self.components is not None else (given[0] if given else 2)
+        components = int(check_range(f"quantity {self.name!r} components", components, 1, 4,
+                                     integer=True))
+        lo = _per_component(f"{self.name}.lo", self.lo, components)
+        hi = _per_component(f"{self.name}.hi", self.hi, components)
+        for axis in range(components):
             if not hi[axis] > lo[axis]:
                 raise ParameterError(f"quantity {self.name!r}: hi must be greater than lo on each "
                                      f"component, got lo={lo} hi={hi}")
+            span = np.float32(hi[axis]) - np.float32(lo[axis])
+            if not np.isfinite(span) or not np.isfinite(np.float32(lo[axis])):
+                raise ParameterError(f"quantity {self.name!r}: the range [{lo[axis]:g}, "
+                                     f"{hi[axis]:g}] overflows float32; each bound and the span "
+                                     "must be within +-3.4e38")
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
+        object.__setattr__(self, "components", components)
 
     @property
-    def range_vec4(self):
-        """vec4(lo.x, lo.y, span.x, span.y): the range uniform of ``lib/state.glsl``."""
-        return packing.range_vec4(self.lo, self.hi)
+    def lo32(self):
+        """lo per component as float32 (what the shader's ``u_<name>_lo`` holds)."""
+        return np.array(self.lo, dtype=np.float32)
+
+    @property
+    def span32(self):
+        """hi - lo per component as float32 (``u_<name>_span``)."""
+        return (np.array(self.hi) - np.array(self.lo)).astype(np.float32)
+
+    def uniforms(self):
+        """The range uniforms of this quantity, padded to vec4: {u_<name>_lo, u_<name>_span}."""
+        # Unused components get lo 0 and span 1 (never a division by zero in the shader).
+        lo, span = np.zeros(4), np.ones(4)
+        lo[: self.components], span[: self.components] = self.lo32, self.span32
+        return {f"u_{self.name}_lo": tuple(map(float, lo)),
+                f"u_{self.name}_span": tuple(map(float, span))}
+
+    def parts(self, fmt):
+        """Textures the quantity spans in ``fmt``."""
+        return packing.parts(self.components, fmt)
+
+    def part_axes(self, fmt, part):
+        """The component names (``xy``, ``z``, ...) that part ``part`` holds in ``fmt``."""
+        if fmt != "rgba8":
+            return AXES[: self.components]
+        return AXES[2 * part: min(2 * part + 2, self.components)]
+
+    def bytes_per_particle(self, fmt):
+        return self.parts(fmt) * bytes_per_texel(fmt)
 
 
-def _pair(name, value):
-    values = [value, value] if np.ndim(value) == 0 else list(value)
-    if len(values) != 2:
-        raise ParameterError(f"{name} must be a number or a pair of numbers, got {value!r}")
+def _per_component(name, value, components):
+    values = [value] * components if np.ndim(value) == 0 else list(value)
+    if len(values) != components:
+        raise ParameterError(f"{name} must be a number or {components} numbers, got {value!r}")
     return tuple(check_range(name, v) for v in values)
 
 
@@ -85,86 +132,110 @@ class Layout:
 
 
 class StateBuffer:
-    """One quantity's texture(s): two for ping-pong when last step's value is read, else one.
+    """One quantity's textures: one per part, each twice for ping-pong when last step's value is
+    read, else once.
 
-    ``front`` holds the latest value; a pass writes into ``back`` (``target``) and ``swap()`` makes it
-    the front, so no pass ever reads and writes one texture.
+    ``fronts`` hold the latest value; a pass writes part k into ``framebuffer(k)`` (the back
+    texture) and ``swap()`` makes the backs the fronts, so no pass ever reads and writes one
+    texture.
     """
 
-    def __init__(self, ctx, quantity, layout, fmt="rgba8", buffers=2):
-        if fmt not in FORMAT_DTYPES:
-            raise ParameterError(f"format must be one of {sorted(FORMAT_DTYPES)}, got {fmt!r}")
-        self.ctx, self.quantity, self.layout, self.fmt = ctx, quantity, layout, fmt
-        self.textures = [ctx.texture(layout.size, fmt) for _ in range(buffers)]
-        self.framebuffers = [ctx.framebuffer(t) for t in self.textures]
-        # Start at world (0, 0) (clamped into the range): a GPU clear to that texel, cheaper
-        # than encoding and uploading a zero array.
-        texel = packing.state_encode(np.zeros((1, 2)), quantity.range_vec4, fmt)[0]
-        colour = texel / 255.0 if fmt == "rgba8" else texel
-        for framebuffer in self.framebuffers:
-            framebuffer.clear(*(float(c) for c in colour))
+    def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
+        if fmt not in FORMATS:
+            raise ParameterError(f"format must be one of {list(FORMATS)}, got {fmt!r}")
+        self.quantity, self.layout, self.fmt = quantity, layout, fmt
+        # textures[k] = [front, back] (or [only]) of part k
+        self.textures = [[group.texture(layout.size, fmt) for _ in range(buffers)]
+                         for _ in range(quantity.parts(fmt))]
+        self.framebuffers = [[group.framebuffer(t) for t in pair] for pair in self.textures]
+        # Start at world zero (clamped into the range): a GPU clear to that texel, cheaper than
+        # encoding and uploading a zero array.
+        texels = packing.state_encode(np.zeros((1, quantity.components)), quantity.lo32,
+                                      quantity.span32, fmt)[0]
+        for part, pair in enumerate(self.framebuffers):
+            colour = texels[part] / 255.0 if fmt == "rgba8" else texels[part]
+            for framebuffer in pair:
+                framebuffer.clear(*(float(c) for c in colour))
 
     @property
-    def front(self):
-        return self.textures[0]
+    def parts(self):
+        return len(self.textures)
 
     @property
-    def target(self):
-        """The framebuffer a pass writes this quantity into."""
-        return self.framebuffers[-1]
+    def fronts(self):
+        """The texture of each part holding the latest value."""
+        return [pair[0] for pair in self.textures]
 
     @property
     def written(self):
-        """The texture holding this step's value once its pass has run."""
-        return self.textures[-1]
+        """The texture of each part holding this step's value once its pass has run."""
+        return [pair[-1] for pair in self.textures]
+
+    @property
+    def ping_pong(self):
+        return len(self.textures[0]) == 2
+
+    def framebuffer(self, part):
+        """The framebuffer a pass writes part ``part`` of this quantity into."""
+        return self.framebuffers[part][-1]
 
     def swap(self):
-        if len(self.textures) == 2:
-            self.textures.reverse()
-            self.framebuffers.reverse()
+        if self.ping_pong:
+            for pair in self.textures + self.framebuffers:
+                pair.reverse()
 
     def upload(self, values):
-        """Write world values (count, 2) into the front texture (clamped to the range)."""
+        """Write world values (count, components) into the fronts (clamped to the range)."""
+        q = self.quantity
         values = np.asarray(values, dtype=np.float64)
-        if values.shape != (self.layout.count, 2):
-            raise ParameterError(f"{self.quantity.name}: values must have shape "
-                                 f"({self.layout.count}, 2), got {values.shape}")
-        self.write_texels(packing.state_encode(values, self.quantity.range_vec4, self.fmt))
+        if values.ndim == 1 and q.components == 1:
+            values = values[:, None]
+        if values.shape != (self.layout.count, q.components):
+            raise ParameterError(f"{q.name}: values must have shape ({self.layout.count}, "
+                                 f"{q.components}), got {values.shape}")
+        self.write_texels(packing.state_encode(values, q.lo32, q.span32, self.fmt))
 
-    def fill_uniform(self, box, rng):
-        """Set the front texture to points drawn uniformly from ``box`` = (lo.x, lo.y, span.x,
-        span.y), clamped to the range. They are drawn in float32 straight in the range's unit
-        square and packed from there: for 2^20 particles ~25 ms, against ~45-90 ms for drawing
+    def fill_uniform(self, lo, span, rng):
+        """Set the fronts to points drawn uniformly from the box [lo, lo + span] (per component,
+        clamped to the range). They are drawn in float32 straight in the range's unit box and
+        packed from there: for 2^20 two-component particles ~25 ms, against ~45-90 ms for drawing
         float64 world points and passing them through ``upload``. (float32 draws have 24 random
         bits, more than the 16 a packed value keeps.)"""
-        q = self.quantity.range_vec4
-        offset = ((box[:2] - q[:2]) / q[2:]).astype(np.float32)
-        scale = (box[2:] / q[2:]).astype(np.float32)
-        unit = packing.clamp_unit(rng.random((self.layout.count, 2), dtype=np.float32) * scale
-                                  + offset)
-        if self.fmt == "rgba8":
-            self.write_texels(packing.pack2x16(unit))
+        q = self.quantity
+        offset = ((lo - q.lo32) / q.span32).astype(np.float32)
+        scale = (span / q.span32).astype(np.float32)
+        unit = packing.clamp_unit(rng.random((self.layout.count, q.components), dtype=np.float32)
+                                  * scale + offset)
+        if self.fmt == "rgba8" and q.components % 2 == 0:
+            self.write_texels(packing.pack16(unit).reshape(-1, self.parts, 4))
         else:
-            self.write_texels(packing.state_encode(q[:2] + unit * q[2:], q, self.fmt))
+            world = q.lo32 + unit * q.span32
+            self.write_texels(packing.state_encode(world, q.lo32, q.span32, self.fmt))
 
     def write_texels(self, texels):
-        """Write texel contents (count, 4) into the front texture as they are: the encoded values
+        """Write texel contents (count, parts, 4) into the fronts as they are: the encoded values
         of ``upload`` and ``fill_uniform``, or raw ones (how the stability suite injects NaN and
         Inf into float state). Spare texels get zeros."""
+        texels = np.asarray(texels).reshape(self.layout.count, self.parts, 4)
         full = np.zeros((self.layout.width * self.layout.height, 4), dtype=numpy_dtype(self.fmt))
-        full[: self.layout.count] = texels
-        self.front.write(full.tobytes())
+        for part, texture in enumerate(self.fronts):
+            full[: self.layout.count] = texels[:, part]
+            texture.write(full.tobytes())
 
     def read_texels(self):
-        """Raw texel contents (count, 4) of the front texture."""
-        raw = np.frombuffer(self.front.read(), dtype=numpy_dtype(self.fmt))
-        return raw.reshape(-1, 4)[: self.layout.count]
+        """Raw texel contents (count, parts, 4) of the fronts."""
+        raw = [np.frombuffer(t.read(), dtype=numpy_dtype(self.fmt)).reshape(-1, 4)
+               [: self.layout.count] for t in self.fronts]
+        return np.stack(raw, axis=1)
 
     def download(self):
-        """World values (count, 2) of the front texture, float64."""
-        texels = self.read_texels()
-        return packing.state_decode(texels, self.quantity.range_vec4, self.fmt).astype(np.float64)
+        """World values (count, components) of the fronts, float64."""
+        q = self.quantity
+        return packing.state_decode(self.read_texels(), q.lo32, q.span32,
+                                    self.fmt).astype(np.float64)
 
-    def release(self):
-        self.ctx.free(*self.framebuffers, *self.textures)
-        self.textures, self.framebuffers = [], []
+    @property
+    def nbytes(self):
+        """GPU memory of every texture of this quantity."""
+        count = sum(len(pair) for pair in self.textures)
+        return count * self.layout.width * self.layout.height * bytes_per_texel(self.fmt)

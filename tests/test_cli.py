@@ -35,11 +35,13 @@ def test_run_writes_an_animation(tmp_path, suffix):
 def test_plan_shows_only_what_the_scene_needs(capsys):
     assert main(["plan", "dejong", *SMALL, "--reseed", "--no-bloom"]) == 0
     text = capsys.readouterr().out
-    assert "1. dejong: dejong.frag writes position; reads nothing" in text
-    assert "position: 1 (single" in text
+    assert "1. dejong: attractors/dejong.frag writes position; reads nothing" in text
+    assert "position (2 components): 1 (single" in text
     assert "writes velocity" not in text and "velocity: " not in text
     assert "writes acceleration" not in text and "acceleration: " not in text
-    assert "de Jong needs no velocity or acceleration" in text
+    assert "dejong needs no velocity or acceleration" in text
+    assert "render: 4096 points, vertex texture fetch of position" in text
+    assert "tone map (log) + gradient map" in text
     assert "left out: bloom (switched off)" in text
     assert "bloom:" not in text
 

@@ -32,7 +32,7 @@ def histogram(points, bins):
 def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coefficients):
     scene = DeJong(coefficients, iterations=3)
     n = 2 ** 16
-    with Simulation(gl, scene.graph(), n, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), n) as sim:
         scene.initialise(sim, np.random.default_rng(5))
         start = sim.download("position")  # the decoded state the GPU starts from
         sim.step()
@@ -47,7 +47,7 @@ def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coeffici
 def test_density_after_20_stateful_steps_correlates_with_float64(gl):
     scene = DeJong(ARTICLE_COEFFICIENTS)
     n, steps = 2 ** 18, 20
-    with Simulation(gl, scene.graph(), n, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), n) as sim:
         scene.initialise(sim, np.random.default_rng(7))
         start = sim.download("position")
         sim.run(steps)
@@ -63,7 +63,7 @@ def test_density_after_20_stateful_steps_correlates_with_float64(gl):
 def test_reseed_mode_matches_float64_per_particle_and_in_density(gl):
     scene = DeJong(ARTICLE_COEFFICIENTS, reseed=True)
     n = 2 ** 20
-    with Simulation(gl, scene.graph(), n, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), n) as sim:
         assert sim.plan.buffers == {"position": 1}  # nothing reads last step's position
         sim.step()
         got = sim.download("position")
@@ -84,7 +84,7 @@ def test_top_of_the_range_stays_at_plus_two(gl):
     # With a = c = pi/2 and b = d = pi, the particle at (1, 1) maps to sin(pi/2) - cos(pi) = 2 on
     # both axes: the top of the packed range. It must decode as +2, never wrap to -2.
     scene = DeJong((np.pi / 2, np.pi, np.pi / 2, np.pi), iterations=1)
-    with Simulation(gl, scene.graph(), 3, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), 3) as sim:
         sim.upload("position", np.array([[1, 1], [2, 2], [2.5, -7]]))
         start = sim.download("position")
         assert np.array_equal(start[1:], [[2, 2], [2, -2]]), "uploads clamp, never wrap"

@@ -161,12 +161,13 @@ def test_world_range_round_trip_and_top_of_range(gl):
     q = Quantity("position", -2, 2)
     values = np.array([[-2, 2], [2, -2], [0, 1e-9], [2.5, -7], [np.nan, np.inf], [1.0, -1.0]])
     layout = Layout.for_count(len(values), gl.caps.max_texture_size)
-    buffer = StateBuffer(gl, q, layout, "rgba8", buffers=1)
+    group = gl.group()
     try:
+        buffer = StateBuffer(group, q, layout, "rgba8", buffers=1)
         buffer.upload(values)
         got = buffer.download()
     finally:
-        buffer.release()
+        group.release()
     expected = np.array([[-2, 2], [2, -2], [0, 0], [2, -2], [-2, 2], [1, -1]], dtype=np.float64)
     world_step = 4 / 65025
     assert np.abs(got - expected).max() <= world_step / 2 + 1e-6, got

@@ -35,7 +35,7 @@ def binned(points, size, view):
 def particles(gl):
     """2^15 particles, most near the centre and a tenth spread over the whole range."""
     rng = np.random.default_rng(11)
-    with Simulation(gl, DeJong().graph(), 2 ** 15, defines=DeJong().defines()) as sim:
+    with Simulation(gl, DeJong().graph(), 2 ** 15) as sim:
         points = rng.normal(0, 0.8, (sim.count, 2)).clip(-1.99, 1.99)
         points[: sim.count // 10] = rng.uniform(-1.99, 1.99, (sim.count // 10, 2))
         sim.upload("position", points)
@@ -43,9 +43,10 @@ def particles(gl):
 
 
 def draw(gl, sim, view=VIEW, **options):
-    renderer = PointRenderer(gl, sim.layout, SIZE, view, sim.fmt, **options)
+    renderer = PointRenderer(gl, {"position": sim.plan.quantities["position"]}, sim.layout, SIZE,
+                             view, sim.fmt, **options)
     try:
-        target = renderer.draw(sim.buffers["position"])
+        target = renderer.draw(sim.buffers)
         w, h = SIZE
         channels = 1 if renderer.format == "r32f" else 4
         dtype = np.uint8 if renderer.format == "rgba8" else np.float32
@@ -76,4 +77,5 @@ def test_sliced_draw_gives_the_same_density_as_one_call(gl, particles, draw_slic
 def test_draw_slice_must_be_a_positive_integer(gl, particles):
     for bad in (0, -5, 2.5):
         with pytest.raises(ParameterError, match="draw_slice"):
-            PointRenderer(gl, particles.layout, SIZE, VIEW, particles.fmt, draw_slice=bad)
+            PointRenderer(gl, {"position": particles.plan.quantities["position"]},
+                          particles.layout, SIZE, VIEW, particles.fmt, draw_slice=bad)

@@ -24,31 +24,95 @@ def variants(path):
     return [{}] + [{flag: None} for flag in sorted(flags)]
 
 
+def uses_bindings(path):
+    """True for a shader that calls the accessors the graph generates (read_q, write_q)."""
+    return re.search(r"\b(read_\w+|write(_\w+)?)\s*\(", expand(path).text) is not None
+
+
 def all_shaders():
     root = shader_root()
     library = sorted(p for p in root.rglob("*") if p.suffix in (".vert", ".frag"))
     tests = sorted(p for p in TEST_SHADERS.glob("*") if p.suffix in (".vert", ".frag")
                    and p.name != "broken.frag")
-    return [str(p) for p in library + tests]
+    return [str(p) for p in library + tests if not uses_bindings(str(p))]
 
 
 BUILDS = [(path, defines) for path in all_shaders() for defines in variants(path)]
 
 
+def validate(tool, source, suffix, tmp_path, what):
+    assert source.startswith("#version 100\n")
+    target = tmp_path / ("expanded" + suffix)
+    target.write_text(source)
+    result = subprocess.run([tool, str(target)], capture_output=True, text=True)
+    assert result.returncode == 0, f"{what} rejected:\n{result.stdout}{result.stderr}"
+
+
 @pytest.mark.parametrize("path, defines", BUILDS,
                          ids=[f"{Path(p).name}-{next(iter(d), 'default')}" for p, d in BUILDS])
 def test_every_shader_is_valid_glsl_es_100(path, defines, tmp_path):
-    tool = glslang()
-    source = expand(path, defines).text
-    assert source.startswith("#version 100\n")
-    target = tmp_path / ("expanded" + Path(path).suffix)
-    target.write_text(source)
-    result = subprocess.run([tool, str(target)], capture_output=True, text=True)
-    assert result.returncode == 0, f"{path} ({defines}) rejected:\n{result.stdout}{result.stderr}"
+    validate(glslang(), expand(path, defines).text, Path(path).suffix, tmp_path,
+             f"{path} ({defines})")
+
+
+def wide_graph():
+    """Quantities of 1, 3 and 4 components, read as last step's and this step's values."""
+    from es2particles import PassGraph
+
+    g = PassGraph()
+    g.quantity("mass", 0, 1, components=1)
+    g.quantity("position", -1, 1, components=3)
+    g.quantity("colour", 0, 1, components=4)
+    g.add("position", str(TEST_SHADERS / "wide.frag"), writes="position",
+          reads=["position", "colour", "mass"], uniforms={"u_shift": (0.1, 0.2, 0.3, 0.4)})
+    g.add("colour", str(TEST_SHADERS / "wide_colour.frag"), writes="colour",
+          reads=["colour", "mass"], reads_new=["position"])
+    g.add("mass", str(TEST_SHADERS / "wide_mass.frag"), writes="mass", reads=["mass"])
+    return g
+
+
+def programs():
+    """(name, frag, defines, prelude lines) of every pass the built-in scenes and the wide test
+    graph build, in every format and rounding, and the renderer's vertex shader."""
+    from es2particles.bindings import pass_interface, stage_interface
+    from es2particles.field import CollisionField
+    from es2particles.scenes import Clifford, Collision, DeJong
+    from es2particles.scenes.collision import RECT
+    from es2particles.simulation import FORMAT_DEFINES
+
+    graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
+              "clifford": Clifford().graph(), "wide": wide_graph(),
+              "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph()}
+    out = []
+    for fmt, base in FORMAT_DEFINES.items():
+        for rounding in (["nearest", "dither"] if fmt == "rgba8" else ["nearest"]):
+            defines = dict(base, **({"STATE_DITHER": None} if rounding == "dither" else {}))
+            for name, graph in graphs.items():
+                for spec, part, _ in graph.plan().draws(fmt):
+                    prelude = pass_interface(spec, graph.quantities, fmt, part).lines
+                    out.append((f"{name}-{spec.name}-{part}-{fmt}-{rounding}", spec.frag,
+                                {**defines, **spec.defines}, prelude))
+        quantities = graphs["collision"].quantities
+        for reads in (("position",), ("position", "life")):
+            prelude = stage_interface(reads, quantities, fmt,
+                                      {"u_view": (0, 0, 1, 1), "u_point_size": 1.0}).lines
+            fade = {"AGE_FADE": None} if "life" in reads else {}
+            out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", {**base, **fade},
+                        prelude))
+    return out
+
+
+PROGRAMS = programs()
+
+
+@pytest.mark.parametrize("name, frag, defines, prelude", PROGRAMS, ids=[p[0] for p in PROGRAMS])
+def test_every_generated_program_is_valid_glsl_es_100(name, frag, defines, prelude, tmp_path):
+    validate(glslang(), expand(frag, defines, prelude).text, Path(frag).suffix, tmp_path, name)
 
 
 def test_includes_paste_each_file_once_and_keep_origins():
-    src = expand(shader("copy.frag"))
+    # The prelude includes state.glsl, which includes pack.glsl; the second include is a no-op.
+    src = expand("lib/constant.frag", prelude=['#include "lib/state.glsl"', '#include "lib/pack.glsl"'])
     assert src.text.count("vec2 pack16(float x)") == 1  # state.glsl includes pack.glsl too
     line = next(i for i, t in enumerate(src.text.splitlines(), 1) if "vec2 pack16(float x)" in t)
     path, number = src.origin(line)

@@ -59,22 +59,14 @@ def test_pruned_passes_are_never_compiled_or_run(gl):
     g.add("never", shader("broken.frag"), writes="broken", reads=["position"])
     # The broken shader would raise if it were compiled; pruning must leave it out entirely.
     with Simulation(gl, g, 16, outputs=["position"]) as sim:
-        assert [p.spec.name for p in sim.passes] == ["add"]
+        assert [d.spec.name for d in sim.draws] == ["add"]
         assert set(sim.buffers) == {"position"}
         sim.run(2)
 
 
 def test_a_user_pass_in_a_few_lines(gl, tmp_path):
     frag = tmp_path / "swap_xy.frag"
-    frag.write_text("""#version 100
-precision highp float;
-#include "lib/state.glsl"
-varying vec2 v_uv;
-uniform sampler2D u_p;
-uniform vec4 u_p_range;
-uniform vec4 u_out_range;
-void main() { gl_FragColor = state_encode(state_read(u_p, v_uv, u_p_range).yx, u_out_range); }
-""")
+    frag.write_text("#version 100\nvoid main() { write_p(read_p(v_uv).yx); }\n")
     g = PassGraph()
     g.quantity("p", -1, 1)
     g.add("swap", str(frag), writes="p", reads=["p"])
@@ -123,7 +115,7 @@ def test_unknown_quantity_and_format_are_clear_errors(gl):
             sim.download("velocity")
         with pytest.raises(ParameterError, match="values must have shape"):
             sim.upload("position", np.zeros((3, 2)))
-        with pytest.raises(ParameterError, match="no pass of this plan has a uniform"):
+        with pytest.raises(ParameterError, match="no pass of this graph declares a uniform 'u_nothing'"):
             sim.set_uniform("u_nothing", 1.0)
     with pytest.raises(ParameterError, match="format must be one of"):
         Simulation(gl, counter_graph(), 4, fmt="rgb565")
@@ -145,7 +137,8 @@ def test_fill_uniform_draws_uniformly_from_the_rectangle(gl, fmt):
     not give."""
     g = PassGraph()
     g.quantity("position", (-2, -2), (2, 2))
-    g.add("add", "examples/drift.frag", writes="position", reads=["position"])
+    g.add("add", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms={"u_delta": (0.0, 0.0)})
     n, lo, hi = 2 ** 18, np.array([-1.5, 0.25]), np.array([1.0, 1.75])
     with Simulation(gl, g, n, fmt=fmt) as sim:
         sim.fill_uniform("position", lo, hi, np.random.default_rng(3))

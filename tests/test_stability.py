@@ -105,10 +105,10 @@ def test_injected_nan_and_inf_are_contained(gl, fmt):
 @pytest.mark.parametrize("fmt", ["rgba16f", "rgba32f"])
 def test_dejong_resets_a_non_finite_particle_to_its_grid_start(gl, fmt):
     scene = DeJong()
-    with Simulation(gl, scene.graph(), 256, defines=scene.defines(), fmt=fmt) as sim:
+    with Simulation(gl, scene.graph(), 256, fmt=fmt) as sim:
         scene.initialise(sim, np.random.default_rng(0))
         texels = sim.buffers["position"].read_texels().astype(np.float32).copy()
-        texels[[0, 7], 0] = [np.nan, np.inf]
+        texels[[0, 7], 0, 0] = [np.nan, np.inf]  # (particle, part, channel)
         sim.buffers["position"].write_texels(texels)
         sim.step()
         p = sim.download("position")
@@ -121,7 +121,7 @@ def test_dejong_extreme_coefficients(gl, coefficients):
     from test_dejong import one_step_bound, reference
 
     scene = DeJong(coefficients)
-    with Simulation(gl, scene.graph(), 4096, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(2))
         edge = np.array([[2.0, 2.0], [-2.0, -2.0], [2.0, -2.0], [-2.0, 2.0]])
         start = sim.download("position")
@@ -139,7 +139,7 @@ def test_dejong_extreme_coefficients(gl, coefficients):
 
 def test_one_particle_and_the_largest_layout(gl):
     scene = DeJong(reseed=True)
-    with Simulation(gl, scene.graph(), 1, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), 1) as sim:
         sim.step()
         p = sim.download("position")
     start = np.array([[0.0, 0.0]])  # the single texel's centre maps to the middle of [-2, 2]
@@ -152,7 +152,7 @@ def test_one_particle_and_the_largest_layout(gl):
 def test_a_large_non_power_of_two_count_runs(gl):
     n = 2 ** 22 - 12345
     scene = DeJong(reseed=True)
-    with Simulation(gl, scene.graph(), n, defines=scene.defines()) as sim:
+    with Simulation(gl, scene.graph(), n) as sim:
         sim.step()
         p = sim.download("position")
         start = -2 + 4 * sim.layout.texel_uv().astype(np.float64)

@@ -1,38 +1,72 @@
-"""What a scene tells the rest of the package: its pass graph, outputs, start and view."""
+"""What a scene is: a declaration the framework carries out.
+
+A scene returns data and never touches GL: its pass graph (quantities, passes with their shaders,
+defines and uniforms, scene textures as numpy arrays), its start (numpy arrays or uniform fills),
+the uniforms that change per frame, what the renderer reads, a background image, and its
+defaults. The framework uploads and owns every texture, applies the start, and resolves each
+default once (``Pipeline``), so the command line passes only what the user typed.
+
+Scenes register by entry point (group ``es2particles.scenes``): another package adds one with
+``[project.entry-points."es2particles.scenes"] name = "package.module:SceneClass"``.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Defaults:
+    """A scene's defaults, used where the caller gives None."""
+
+    particles: int = 2 ** 20
+    point_size: float = 1.0
+    steps: int = 1  # simulation steps before the first frame
+    rounding: str = "nearest"
+
+
+@dataclass(frozen=True)
+class Fill:
+    """A start drawn uniformly from the box [lo, hi] (one bound per component, or one for all)."""
+
+    lo: object
+    hi: object
 
 
 class Scene:
-    """Base of the scenes. A scene is plain data plus a graph: no GL of its own."""
+    """Base of the scenes. Subclasses set the class attributes and override the declarations."""
 
     name = ""
     view = (-1.0, -1.0, 1.0, 1.0)  # world rectangle that fills the image: x0, y0, x1, y1
-    outputs = ("position",)
-    fade_by_life = False
-    default_steps = 1
-    default_particles = 2 ** 20
-    default_point_size = 1.0
-    default_rounding = "nearest"
+    render_reads = ("position",)  # quantities the renderer reads: position, and life to fade
+    defaults = Defaults()
     # True where each particle lands near last frame's place (reseeded scenes): the renderer then
     # orders its draw by framebuffer tile once, ~10% off the draw on a CPU rasteriser.
     positions_repeat = False
 
+    # -- declarations ----------------------------------------------------------------------
+
     @classmethod
     def add_arguments(cls, parser):
-        """Add the scene's own command-line options."""
+        """Add the scene's own command-line options (default None: the scene decides)."""
 
     @classmethod
     def from_args(cls, args):
-        raise NotImplementedError
+        """The scene from parsed arguments."""
+        return cls()
 
     def graph(self):
-        """The scene's :class:`PassGraph`."""
+        """The scene's complete :class:`~es2particles.PassGraph`."""
         raise NotImplementedError
 
-    def defines(self):
+    def start(self, count, rng):
+        """The starting state: quantity name -> (count, components) array or :class:`Fill`.
+        Quantities not named start at zero."""
         return {}
 
-    def initialise(self, sim, rng):
-        """Upload the starting state."""
+    def frame_uniforms(self, frame, frames):
+        """Uniforms to set before frame ``frame`` of ``frames`` (animation): name -> value."""
+        return {}
 
     def background(self):
         """An (h, w, 4) uint8 image drawn under the particles, or None."""
@@ -42,5 +76,18 @@ class Scene:
         """Extra lines for the printed plan."""
         return []
 
+    # -- carried out by the framework ------------------------------------------------------
+
+    def initialise(self, sim, rng):
+        """Apply :meth:`start` to a simulation: fills where it says, uploads elsewhere."""
+        for name, value in self.start(sim.count, rng).items():
+            if isinstance(value, Fill):
+                sim.fill_uniform(name, value.lo, value.hi, rng)
+            else:
+                sim.upload(name, np.asarray(value))
+
     def before_frame(self, sim, frame, frames):
-        """Set per-frame uniforms (animation); ``frame`` counts from 0 to ``frames - 1``."""
+        """Set :meth:`frame_uniforms` on a simulation."""
+        uniforms = self.frame_uniforms(frame, frames)
+        if uniforms:
+            sim.set_uniforms(uniforms)

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ParameterError, check_range
 from ..field import CollisionField, parse_shape
 from ..graph import PassGraph
-from .base import Scene
+from .base import Defaults, Scene
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
 MAX_SUBSTEPS = 256  # as in lib/particle.glsl
@@ -83,19 +83,25 @@ class Physics:
         omega = np.sqrt(self.spring[2])
         return float(np.ceil(max(self.max_speed * self.dt / (0.5 * field.cell), 2 * omega * self.dt)))
 
-    def uniforms(self, field):
+    def life_uniforms(self):
+        """Uniforms of the life cycle (age, respawn): every pass uses them."""
+        return {
+            "u_dt": float(self.dt), "u_emit": 1.0 if self.emit else 0.0,
+            "u_emitter": (*map(float, self.emitter), float(self.direction), float(self.spread)),
+            "u_speed": tuple(map(float, self.speed)), "u_lifetime": tuple(map(float, self.lifetime)),
+        }
+
+    def motion_uniforms(self, field):
+        """Uniforms of forces, integration and collision: the velocity and position passes."""
         x0, y0, x1, y1 = field.rect
         return {
             "u_fixed_substeps": self.fixed_substeps(field),
-            "u_dt": float(self.dt), "u_gravity": tuple(map(float, self.gravity)),
-            "u_drag": float(self.drag), "u_spring": tuple(map(float, self.spring)),
-            "u_sliding": float(self.sliding), "u_bounce": float(self.bounce),
-            "u_cell": float(field.cell), "u_field_rect": (x0, y0, x1 - x0, y1 - y0),
+            "u_gravity": tuple(map(float, self.gravity)), "u_drag": float(self.drag),
+            "u_spring": tuple(map(float, self.spring)), "u_sliding": float(self.sliding),
+            "u_bounce": float(self.bounce), "u_cell": float(field.cell),
+            "u_field_rect": (x0, y0, x1 - x0, y1 - y0),
             "u_field_cells": tuple(map(float, field.resolution)),
             "u_field_range": tuple(map(float, field.range)),
-            "u_emit": 1.0 if self.emit else 0.0,
-            "u_emitter": (*map(float, self.emitter), float(self.direction), float(self.spread)),
-            "u_speed": tuple(map(float, self.speed)), "u_lifetime": tuple(map(float, self.lifetime)),
         }
 
 
@@ -104,11 +110,7 @@ class Collision(Scene):
 
     name = "collision"
     view = RECT
-    outputs = ("position",)
-    fade_by_life = True
-    default_particles = 2 ** 17  # the sub-stepped passes cost ~20x de Jong's per particle
-    default_point_size = 2.0
-    default_rounding = "dither"  # a slow particle's sub-code moves are kept on average
+    render_reads = ("position", "life")  # life: fade with age; unborn and dead are not drawn
 
     def __init__(self, shape="circle", physics=Physics(), field_resolution=(256, 256), field=None):
         self.physics = physics
@@ -116,8 +118,11 @@ class Collision(Scene):
             shapes, mask = parse_shape(shape, RECT)
             field = CollisionField(RECT, shapes, mask, field_resolution)
         self.field = field
-        # Steady from the first frame: run one longest lifetime before it (see initialise).
-        self.default_steps = int(np.ceil(physics.lifetime[1] / physics.dt)) if physics.emit else 0
+        # Steady from the first frame: run one longest lifetime before it (see start). 2^17
+        # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
+        # a slow particle's sub-code moves are kept on average.
+        steps = int(np.ceil(physics.lifetime[1] / physics.dt)) if physics.emit else 0
+        self.defaults = Defaults(particles=2 ** 17, point_size=2.0, steps=steps, rounding="dither")
 
     @classmethod
     def add_arguments(cls, parser):
@@ -149,27 +154,25 @@ class Collision(Scene):
         g.quantity("position", RECT[:2], RECT[2:])
         g.quantity("velocity", -p.max_speed, p.max_speed)
         g.quantity("life", (-p.max_age, 0.0), (p.max_age, p.max_age))
+        g.texture("field", self.field.texels())
         state = ("position", "velocity", "life")
-        g.add("velocity", "collision.frag", writes="velocity", reads=state,
-              defines={"WRITE_VELOCITY": None})
-        g.add("position", "collision.frag", writes="position", reads=state,
-              defines={"WRITE_POSITION": None})
-        g.add("life", "collision.frag", writes="life", reads=state,
+        motion = {**p.life_uniforms(), **p.motion_uniforms(self.field)}
+        for name in ("velocity", "position"):
+            g.add(name, "collision.frag", writes=name, reads=state, textures=["field"],
+                  uniforms=motion, defines={f"WRITE_{name.upper()}": None})
+        # The life pass only ages and respawns: no forces, no field.
+        g.add("life", "collision.frag", writes="life", reads=state, uniforms=p.life_uniforms(),
               defines={"WRITE_LIFE": None})
         return g
 
-    def initialise(self, sim, rng):
-        n = sim.count
+    def start(self, count, rng):
         p = self.physics
-        sim.attach_texture("u_field", self.field.upload(sim.ctx))
-        sim.set_uniforms(self.physics.uniforms(self.field))
         # Not yet born, with birth delays spread evenly over the longest lifetime: emission runs
         # at its steady rate from the start, and after one lifetime the fountain is steady.
-        life = np.zeros((n, 2))
-        life[:, 0] = -rng.uniform(0, p.lifetime[1], n) if p.emit else 0.0
-        life[:, 1] = rng.uniform(*p.lifetime, n) if p.emit else p.max_age
-        sim.upload("life", life)
-        sim.upload("position", np.tile(p.emitter, (n, 1)))
+        life = np.zeros((count, 2))
+        life[:, 0] = -rng.uniform(0, p.lifetime[1], count) if p.emit else 0.0
+        life[:, 1] = rng.uniform(*p.lifetime, count) if p.emit else p.max_age
+        return {"life": life, "position": np.tile(p.emitter, (count, 1))}
 
     def describe(self):
         from ..field import memory_table

@@ -1,31 +1,22 @@
 #version 100
 // One point per particle: fetch its position from the state texture (vertex texture fetch) at
 // the texel this vertex names. GLSL ES 1.00 has no gl_VertexID, so a static buffer of texel
-// coordinates, made once, is the index.
-precision highp float;
-precision highp sampler2D;
-#include "lib/state.glsl"
-
+// coordinates, made once, is the index. read_position() and read_life(), the samplers behind
+// them and u_view, u_point_size are declared by the renderer (es2particles/bindings.py).
 attribute vec2 a_texel;
-uniform sampler2D u_position;
-uniform vec4 u_position_range;
-uniform vec4 u_view;  // the world rectangle drawn: lo.x, lo.y, span.x, span.y
-uniform float u_point_size;
 #ifdef AGE_FADE
-uniform sampler2D u_life;
-uniform vec4 u_life_range;
 varying float v_fade;
 #endif
 
 void main()
 {
-    vec2 p = state_read(u_position, a_texel, u_position_range);
+    vec2 p = read_position(a_texel);
     gl_Position = vec4((p - u_view.xy) / u_view.zw * 2.0 - 1.0, 0.0, 1.0);
     gl_PointSize = u_point_size;
 #ifdef AGE_FADE
     // life = (age, lifetime): fade out as the particle gets older; unborn (age < 0) and dead
     // (age >= lifetime) ones are moved outside the clip volume, so they are never drawn.
-    vec2 life = state_read(u_life, a_texel, u_life_range);
+    vec2 life = read_life(a_texel);
     v_fade = clamp(1.0 - life.x / max(life.y, 1e-6), 0.0, 1.0);
     if (!(life.x >= 0.0 && life.x < life.y)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);

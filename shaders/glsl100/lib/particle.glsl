@@ -9,23 +9,14 @@
 #define MAX_SUBSTEPS 256
 #endif
 
-uniform vec2 u_state_size;
-uniform float u_dt;
-uniform vec2 u_gravity;
-uniform float u_drag;        // k of v' = -k v, integrated exactly (stable for any k dt)
-uniform vec3 u_spring;       // centre.xy and omega^2 of a pull towards a point
-uniform float u_sliding;     // s: 1 bounces along the normal, 0 slides along the surface
-uniform float u_bounce;      // r: bouncing resistance, the speed kept on contact
-uniform float u_cell;        // field cell size: a sub-step moves at most half of it
-uniform float u_fixed_substeps;  // 0: each particle picks its count; else this count for all
-uniform sampler2D u_field;   // RG: packed distance, BA: normal * 0.5 + 0.5
-uniform vec4 u_field_rect;   // x0, y0, width, height of the scene rectangle
-uniform vec2 u_field_cells;
-uniform vec4 u_field_range;  // distance range as (lo, lo, span, span)
-uniform float u_emit;        // 1: dead particles respawn at the emitter; 0: they stay dead
-uniform vec4 u_emitter;      // position.xy, direction angle, spread angle
-uniform vec2 u_speed;        // emission speed range
-uniform vec2 u_lifetime;     // lifetime range
+// Its uniforms are declared by the graph from the scene's Physics (scenes/collision.py):
+//   u_dt, u_emit, u_emitter (position.xy, direction, spread), u_speed and u_lifetime (ranges),
+// and, for the passes that move particles (not WRITE_LIFE): u_gravity, u_drag (k of v' = -k v,
+// integrated exactly), u_spring (centre.xy, omega^2), u_sliding (s: 1 bounces along the normal,
+// 0 slides), u_bounce (r: the speed kept on contact), u_cell (a sub-step moves at most half of
+// it), u_fixed_substeps (0: each particle picks its count), the field texture u_field (RG:
+// packed distance, BA: normal * 0.5 + 0.5), u_field_rect (x0, y0, width, height),
+// u_field_cells and u_field_range (the distance's (lo, lo, span, span)).
 
 struct Particle {
     vec2 x;
@@ -33,6 +24,7 @@ struct Particle {
     vec2 life;  // age, lifetime; age < 0: not yet born
 };
 
+#ifndef WRITE_LIFE  // motion: forces, collision, integration
 void field_sample(vec2 p, out float d, out vec2 n)
 {
     vec2 cell = clamp(floor((p - u_field_rect.xy) / u_field_rect.zw * u_field_cells),
@@ -120,6 +112,7 @@ void integrate(inout vec2 x, inout vec2 v)
         collide(x, v, a);
     }
 }
+#endif
 
 Particle spawn(vec2 uv)
 {

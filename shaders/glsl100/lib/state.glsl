@@ -1,10 +1,13 @@
-// Reading and writing one two-component particle quantity, whatever the storage format.
-// A quantity's range uniform is vec4(lo.x, lo.y, span.x, span.y), span = hi - lo; values are
-// clamped into [lo, hi] on write (never wrapped). numpy twins: es2particles/packing.py.
+// Reading and writing particle quantities, whatever the storage format. A pass never declares
+// its quantities itself: the graph writes, for each quantity the pass reads or writes, its
+// samplers (u_<q>, and u_<q>_1 for a second RGBA8 part), its range uniforms u_<q>_lo and
+// u_<q>_span (vec4: one number per component) and the accessors read_<q>(uv) and
+// write_<q>(value), built on the functions below (es2particles/bindings.py writes them).
+// numpy twins: es2particles/packing.py.
 //
 // The format is chosen by a define that the simulation injects:
-//   STATE_RGBA8  (default) 16-bit fixed point, two values packed in one RGBA8 texel;
-//   STATE_FLOAT  RGBA16F/RGBA32F, the world value stored as it is in .xy.
+//   STATE_RGBA8  (default) 16-bit fixed point over [lo, hi], two values packed in one RGBA8 texel;
+//   STATE_FLOAT  RGBA16F/RGBA32F: the value itself, clamped into [lo, hi], up to four per texel.
 // STATE_DITHER makes the packed format round stochastically, with noise from a hash of the texel
 // written (gl_FragCoord) and the step number: deterministic, different per particle and step.
 #include "lib/pack.glsl"
@@ -16,43 +19,49 @@ uniform float u_step;  // the step being computed (set by the simulation)
 #define STATE_RGBA8
 #endif
 
-vec2 state_unit(vec2 value, vec4 range)
+vec2 state_unit(vec2 value, vec2 lo, vec2 span)
 {
-    return clamp_unit((value - range.xy) / range.zw);
-}
-
-vec2 state_decode(vec4 texel, vec4 range)
-{
-#ifdef STATE_RGBA8
-    return range.xy + unpack2x16(texel) * range.zw;
-#else
-    return texel.xy;
-#endif
+    return clamp_unit((value - lo) / span);
 }
 
 #ifdef STATE_DITHER
-// Fragment shaders only (gl_FragCoord): the passes that write state.
-vec2 state_noise()
+// Fragment shaders only (gl_FragCoord): the passes that write state. .xy round the first part
+// of a quantity, .zw the second.
+vec4 state_noise()
 {
     vec2 texel = floor(gl_FragCoord.xy);
-    return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0) + 17.0)).xy;
+    return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0) + 17.0));
 }
-#endif
-
-vec4 state_encode(vec2 value, vec4 range)
-{
-#if defined(STATE_RGBA8) && defined(STATE_DITHER)
-    vec2 x = state_unit(value, range);
-    vec2 u = state_noise();
-    return vec4(pack16_dither(x.x, u.x), pack16_dither(x.y, u.y));
-#elif defined(STATE_RGBA8)
-    return pack2x16(state_unit(value, range));
 #else
-    return vec4(range.xy + state_unit(value, range) * range.zw, 0.0, 1.0);
+vec4 state_noise()
+{
+    return vec4(0.5);  // unused: nearest rounding
+}
+#endif
+
+// One RGBA8 texel: two values over their ranges.
+vec2 state_decode(vec4 texel, vec2 lo, vec2 span)
+{
+    return lo + unpack2x16(texel) * span;
+}
+
+vec4 state_encode(vec2 value, vec2 lo, vec2 span, vec2 noise)
+{
+    vec2 x = state_unit(value, lo, span);
+#ifdef STATE_DITHER
+    return vec4(pack16_dither(x.x, noise.x), pack16_dither(x.y, noise.y));
+#else
+    return pack2x16(x);
 #endif
 }
 
-vec2 state_read(sampler2D quantity, vec2 uv, vec4 range)
+// Float formats: the value itself, clamped into [lo, lo + span]. Not clamp(): clamp(NaN, ...) is
+// undefined in GLSL; a failed comparison is not, so NaN gives lo.
+vec4 state_clamp(vec4 value, vec4 lo, vec4 span)
 {
-    return state_decode(texture2D(quantity, uv), range);
+    vec4 hi = lo + span;
+    return vec4(value.x >= lo.x ? min(value.x, hi.x) : lo.x,
+                value.y >= lo.y ? min(value.y, hi.y) : lo.y,
+                value.z >= lo.z ? min(value.z, hi.z) : lo.z,
+                value.w >= lo.w ? min(value.w, hi.w) : lo.w);
 }

@@ -1,0 +1,202 @@
+"""The GLSL interface of a stage, written from its declaration (as pygfx writes its bindings).
+
+A pass declares what it reads, writes, samples and sets; this module writes the declarations its
+shader sees, placed after ``#version`` and the defines, so the shader holds only its logic and the
+two can never disagree:
+
+- ``varying vec2 v_uv``: the texel of the particle being computed (full-screen passes);
+- for each quantity ``q`` read or written: ``uniform vec4 u_q_lo, u_q_span`` (its range, one
+  number per component);
+- for each quantity read: its samplers ``u_q`` (and ``u_q_1``, the second RGBA8 part of a quantity
+  of 3 or 4 components) and ``read_q(uv)``, returning float, vec2, vec3 or vec4;
+- for the written quantity: ``write_q(value)`` (and ``write(value)``, the same, for a shader that
+  several passes share), which sets gl_FragColor to the part this draw writes (ES 2.0 has one
+  render target: a two-part quantity is written by two draws);
+- ``uniform sampler2D u_t`` for each scene texture ``t`` the pass samples;
+- each of the pass's own uniforms, typed from its value: a number is a float, 2 to 4 numbers a
+  vec2..vec4, a (k, n) array a vecn[k];
+- ``u_state_size`` (texels, vec2) and ``u_count`` (particles); ``u_step`` comes with lib/state.glsl.
+
+Pure Python, no GL: the executor compiles what is written here, and tests read it.
+"""
+
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import ParameterError, ShaderError
+from .shaders import GENERATED
+
+GLSL_TYPES = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
+
+
+def glsl_type(name, value):
+    """(type, array suffix) of uniform ``name`` for its value: ('vec2', ''), ('vec2', '[6]')."""
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        array = None
+    if array is not None and np.all(np.isfinite(array)):
+        if array.ndim == 0:
+            return "float", ""
+        if array.ndim == 1 and 2 <= len(array) <= 4:
+            return GLSL_TYPES[len(array)], ""
+        if array.ndim == 2 and array.shape[0] >= 1 and 1 <= array.shape[1] <= 4:
+            return GLSL_TYPES[array.shape[1]], f"[{array.shape[0]}]"
+    raise ParameterError(f"uniform {name}: value must be finite: a number, 2 to 4 numbers, or a "
+                         f"(k, 1..4) array, got {value!r}")
+
+
+def uniform_value(name, value, declared):
+    """``value`` in the form moderngl takes for a uniform of type ``declared``; checks it fits."""
+    got = glsl_type(name, value)
+    if got != declared:
+        raise ParameterError(f"uniform {name} is a {''.join(declared)}; got {value!r}, a "
+                             f"{''.join(got)}")
+    array = np.asarray(value, dtype=np.float64)
+    if array.ndim == 0:
+        return float(array)
+    if array.ndim == 1:
+        return tuple(map(float, array))
+    return [tuple(map(float, row)) if len(row) > 1 else float(row[0]) for row in array]
+
+
+@dataclass
+class Interface:
+    """What the generated lines declare, so the executor can feed and check them.
+
+    ``samplers``: sampler name -> ('quantity', name, part, this_step) or ('texture', name).
+    ``uniforms``: the stage's own uniform name -> (type, array suffix).
+    ``fixed``: uniforms set once from the declaration (ranges), name -> value.
+    ``writes``: (quantity, part) of a pass's draw, or None.
+    """
+
+    lines: list = field(default_factory=list)
+    samplers: dict = field(default_factory=dict)
+    uniforms: dict = field(default_factory=dict)
+    fixed: dict = field(default_factory=dict)
+    writes: tuple = None
+
+    @property
+    def names(self):
+        """Every name the generated lines declare."""
+        declared = re.findall(r"^(?:uniform|varying|attribute)\s+\w+\s+(\w+)", "\n".join(self.lines),
+                              re.M)
+        return set(declared)
+
+    @property
+    def text(self):
+        return "\n".join(self.lines)
+
+
+def _ranges(out, quantity):
+    if f"uniform vec4 u_{quantity.name}_lo;" not in out.lines:
+        out.lines += [f"uniform vec4 u_{quantity.name}_lo;", f"uniform vec4 u_{quantity.name}_span;"]
+        out.fixed.update(quantity.uniforms())
+
+
+def _reader(out, quantity, fmt, this_step):
+    q, c = quantity.name, quantity.components
+    _ranges(out, quantity)
+    ret = GLSL_TYPES[c]
+    samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
+    for part, sampler in enumerate(samplers):
+        out.lines.append(f"uniform sampler2D {sampler};")
+        out.samplers[sampler] = ("quantity", q, part, this_step)
+    if fmt == "rgba8":
+        decoded = [f"state_decode(texture2D({s}, uv), u_{q}_lo.{axes}, u_{q}_span.{axes})"
+                   for s, axes in zip(samplers, ("xy", "zw"))]
+        if c <= 2:
+            body = decoded[0] + (".x" if c == 1 else "")
+        else:
+            body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
+    else:
+        body = f"texture2D({samplers[0]}, uv)" + ("" if c == 4 else "." + "xyzw"[:c])
+    out.lines += [f"{ret} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
+
+
+def _writer(out, quantity, fmt, part):
+    q, c = quantity.name, quantity.components
+    _ranges(out, quantity)
+    padded = "value" if c == 4 else f"vec4(value{', 0.0' * (4 - c)})"
+    if fmt == "rgba8":
+        axes = ("xy", "zw")[part]
+        encode = (f"state_encode(v.{axes}, u_{q}_lo.{axes}, u_{q}_span.{axes}, "
+                  f"state_noise().{axes})")
+    else:
+        encode = f"state_clamp(v, u_{q}_lo, u_{q}_span)"
+    out.lines += [f"void write_{q}({GLSL_TYPES[c]} value)", "{", f"    vec4 v = {padded};",
+                  f"    gl_FragColor = {encode};", "}",
+                  f"void write({GLSL_TYPES[c]} value)  // the same, for a shader shared by passes",
+                  "{", f"    write_{q}(value);", "}"]
+    out.writes = (q, part)
+
+
+def _own_uniforms(out, uniforms):
+    for name, value in uniforms.items():
+        if not re.fullmatch(r"[A-Za-z_]\w*", str(name)):
+            raise ParameterError(f"uniform name {name!r} is not a GLSL identifier")
+        kind = glsl_type(name, value)
+        out.lines.append(f"uniform {kind[0]} {name}{kind[1]};")
+        out.uniforms[name] = kind
+
+
+PRELUDE = ["precision highp float;", "precision highp sampler2D;", '#include "lib/state.glsl"']
+
+
+def pass_interface(spec, quantities, fmt, part=0):
+    """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.graph.Pass`)."""
+    out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;", "uniform vec2 u_state_size;",
+                                           "uniform float u_count;"])
+    for name in spec.reads:
+        _reader(out, quantities[name], fmt, this_step=False)
+    for name in spec.reads_new:
+        _reader(out, quantities[name], fmt, this_step=True)
+    for name in spec.textures:
+        out.lines.append(f"uniform sampler2D u_{name};")
+        out.samplers[f"u_{name}"] = ("texture", name)
+    _own_uniforms(out, spec.uniforms)
+    _writer(out, quantities[spec.writes], fmt, part)
+    return out
+
+
+def stage_interface(reads, quantities, fmt, uniforms=None):
+    """The interface of a vertex stage that reads quantities at a texel (a renderer)."""
+    out = Interface(lines=list(PRELUDE))
+    for name in reads:
+        _reader(out, quantities[name], fmt, this_step=False)
+    _own_uniforms(out, uniforms or {})
+    return out
+
+
+_DECLARATION = re.compile(r"^\s*(?:uniform|varying|attribute)\s+(?:(?:lowp|mediump|highp)\s+)?\w+"
+                          r"\s+([^;]+);")
+_COMMENT = re.compile(r"//.*$")
+
+
+def check_source(source, interface, stage):
+    """Raise :class:`ShaderError` where the shader declares a name the interface declares (GLSL
+    would say only 'redeclaration'), or, for a pass, never calls its ``write_<q>()``."""
+    calls_write = interface.writes is None
+    write = (re.compile(rf"\bwrite(_{interface.writes[0]})?\s*\(") if interface.writes
+             else None)
+    generated = interface.names
+    for line, (file, number) in zip(source.text.splitlines(), source.origins):
+        if file == GENERATED:
+            continue
+        code = _COMMENT.sub("", line)
+        match = _DECLARATION.match(code)
+        if match:
+            for name in (n.strip().split("[")[0] for n in match.group(1).split(",")):
+                if name in generated:
+                    raise ShaderError(
+                        f"{file}:{number}: {stage} declares {name!r}, which the graph declares "
+                        f"for it from the pass's declaration; remove this line\n    {number:4d} | "
+                        f"{line.strip()}")
+        if write is not None and write.search(code):
+            calls_write = True
+    if not calls_write:
+        q = interface.writes[0]
+        raise ShaderError(f"{stage} never calls write_{q}(value): a pass must write the "
+                          f"quantity it declares (writes={q!r})")

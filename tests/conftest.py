@@ -65,3 +65,21 @@ def glslang():
                         "install it")
         pytest.skip("glslangValidator not installed (apt-get install glslang-tools)")
     return tool
+
+
+def wide_graph(shift=(0.1, 0.2, 0.3, 0.4)):
+    """Quantities of 1, 3 and 4 components: position (3) moves by u_shift.xyz * mass each step,
+    reading last step's position, colour and mass; colour (4) is this step's position and last
+    step's mass; mass (1) keeps its value."""
+    from es2particles import PassGraph
+
+    g = PassGraph()
+    g.quantity("mass", 0, 1, components=1)
+    g.quantity("position", -1, 1, components=3)
+    g.quantity("colour", 0, 1, components=4)
+    g.add("position", shader("wide.frag"), writes="position",
+          reads=["position", "colour", "mass"], uniforms={"u_shift": shift})
+    g.add("colour", shader("wide_colour.frag"), writes="colour", reads=["mass"],
+          reads_new=["position"])
+    g.add("mass", shader("wide_mass.frag"), writes="mass", reads=["mass"])
+    return g

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import TEST_SHADERS, glslang, shader
+from conftest import TEST_SHADERS, glslang, shader, wide_graph
 from es2particles import ShaderError
 from es2particles.shaders import expand, shader_root
 
@@ -53,22 +53,6 @@ def validate(tool, source, suffix, tmp_path, what):
 def test_every_shader_is_valid_glsl_es_100(path, defines, tmp_path):
     validate(glslang(), expand(path, defines).text, Path(path).suffix, tmp_path,
              f"{path} ({defines})")
-
-
-def wide_graph():
-    """Quantities of 1, 3 and 4 components, read as last step's and this step's values."""
-    from es2particles import PassGraph
-
-    g = PassGraph()
-    g.quantity("mass", 0, 1, components=1)
-    g.quantity("position", -1, 1, components=3)
-    g.quantity("colour", 0, 1, components=4)
-    g.add("position", str(TEST_SHADERS / "wide.frag"), writes="position",
-          reads=["position", "colour", "mass"], uniforms={"u_shift": (0.1, 0.2, 0.3, 0.4)})
-    g.add("colour", str(TEST_SHADERS / "wide_colour.frag"), writes="colour",
-          reads=["colour", "mass"], reads_new=["position"])
-    g.add("mass", str(TEST_SHADERS / "wide_mass.frag"), writes="mass", reads=["mass"])
-    return g
 
 
 def programs():

@@ -4,5 +4,5 @@
 void main()
 {
     vec4 c = read_colour(v_uv);
-    write_position(read_position(v_uv) + u_shift.xyz * read_mass(v_uv) + 0.0 * c.w);
+    write_position(read_position(v_uv) + u_shift.xyz * read_mass(v_uv) * step(-1.0, c.w));
 }

@@ -1,0 +1,180 @@
+"""Loud seams: the generated interface of a pass, and one error policy for every mismatch between
+what a stage is given and what its shader uses. Each error names the stage, the file and the name.
+"""
+
+import numpy as np
+import pytest
+
+from conftest import shader
+from es2particles import GraphError, ParameterError, PassGraph, ShaderError, Simulation
+from es2particles.bindings import pass_interface
+from es2particles.command import FullscreenCommand
+from es2particles.pipeline import Pipeline
+from es2particles.scenes import DeJong
+
+
+def drift_graph(**uniforms):
+    g = PassGraph()
+    g.quantity("position", -1, 1)
+    g.add("drift", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms=uniforms)
+    return g
+
+
+def user_pass(tmp_path, body, **declaration):
+    frag = tmp_path / "user.frag"
+    frag.write_text("#version 100\n" + body + "\n")
+    g = PassGraph()
+    g.quantity("position", -1, 1)
+    g.quantity("velocity", -1, 1)
+    g.add("velocity", shader("keep_velocity.frag"), writes="velocity", reads=["velocity"])
+    g.add("user", str(frag), writes="position", **declaration)
+    return g
+
+
+def test_the_interface_is_written_from_the_declaration():
+    """No GL: what a pass's shader is given, by name and type."""
+    g = PassGraph()
+    g.quantity("position", -1, 1, components=3)
+    g.quantity("mass", 0, 2, components=1)
+    g.texture("field", np.zeros((4, 4, 4), np.uint8))
+    g.add("move", "user.frag", writes="position", reads=["position"], reads_new=["mass"],
+          textures=["field"], uniforms={"u_dt": 0.1, "u_gravity": (0, -9.8, 0),
+                                        "u_taps": np.zeros((6, 2))})
+    rgba8 = pass_interface(g.passes[0], g.quantities, "rgba8", part=1)
+    text = rgba8.text
+    for line in ("uniform sampler2D u_position;", "uniform sampler2D u_position_1;",
+                 "vec3 read_position(vec2 uv)", "float read_mass(vec2 uv)",
+                 "uniform sampler2D u_field;", "uniform float u_dt;", "uniform vec3 u_gravity;",
+                 "uniform vec2 u_taps[6];", "void write_position(vec3 value)",
+                 "varying vec2 v_uv;"):
+        assert line in text, line
+    assert "state_encode(v.zw, u_position_lo.zw" in text  # part 2 writes z (and padding)
+    assert rgba8.samplers["u_mass"] == ("quantity", "mass", 0, True)
+    floats = pass_interface(g.passes[0], g.quantities, "rgba32f", part=0)
+    assert "u_position_1" not in floats.text  # one float texture holds all three
+    assert "state_clamp(v, u_position_lo, u_position_span)" in floats.text
+
+
+def test_the_readme_mistake_names_the_shader_line_and_what_was_given(gl):
+    # The README once set u_velocity while drift.frag uses u_delta: that did nothing, silently.
+    with pytest.raises(ShaderError) as info:
+        Simulation(gl, drift_graph(u_velocity=(0.01, 0.0)), 16)
+    message = str(info.value)
+    print(message)
+    assert "drift.frag:" in message and "u_delta" in message and "undeclared" in message
+    assert "u_velocity" in message  # what the graph declared for it
+
+
+def test_a_uniform_the_shader_never_uses_is_an_error(gl):
+    with pytest.raises(ParameterError, match=r"pass 'drift' \(examples/drift.frag\): uniform "
+                                             r"'u_speed' is given, but the shader never uses it"):
+        Simulation(gl, drift_graph(u_delta=(0.0, 0.0), u_speed=1.0), 16)
+
+
+def test_a_misspelled_set_uniform_is_an_error(gl):
+    with Simulation(gl, drift_graph(u_delta=(0.0, 0.0)), 16) as sim:
+        with pytest.raises(ParameterError, match="no pass of this graph declares a uniform "
+                                                 "'u_detla' .declared: u_delta"):
+            sim.set_uniform("u_detla", (0.1, 0.0))
+        with pytest.raises(ParameterError, match="uniform u_delta is a vec2"):
+            sim.set_uniform("u_delta", 0.5)
+
+
+def test_an_unfed_sampler_is_an_error(gl, tmp_path):
+    g = user_pass(tmp_path, "uniform sampler2D u_noise;\n"
+                  "void main() { write_position(texture2D(u_noise, v_uv).xy); }")
+    with pytest.raises(ParameterError, match=r"pass 'user' .*user.frag\): sampler 'u_noise' is "
+                                             "used by the shader but nothing feeds it"):
+        Simulation(gl, g, 16, outputs=["position"])
+
+
+def test_a_pass_that_writes_nothing_is_an_error(gl, tmp_path):
+    g = user_pass(tmp_path, "void main() { gl_FragColor = vec4(0.5); }")
+    with pytest.raises(ShaderError, match=r"pass 'user' .*user.frag\) never calls "
+                                          r"write_position\(value\)"):
+        Simulation(gl, g, 16, outputs=["position"])
+
+
+def test_a_read_the_shader_never_makes_is_an_error(gl, tmp_path):
+    g = user_pass(tmp_path, "void main() { write_position(vec2(0.0)); }", reads=["velocity"])
+    with pytest.raises(ParameterError, match="declares it reads quantity 'velocity' but its "
+                                             "shader never uses read_velocity"):
+        Simulation(gl, g, 16, outputs=["position"])
+
+
+def test_declaring_what_the_graph_declares_is_an_error_naming_the_line(gl, tmp_path):
+    g = user_pass(tmp_path, "uniform sampler2D u_velocity;\n"
+                  "void main() { write_position(read_velocity(v_uv)); }", reads=["velocity"])
+    with pytest.raises(ShaderError, match=r"user.frag:2: .*declares 'u_velocity', which the "
+                                          "graph declares"):
+        Simulation(gl, g, 16, outputs=["position"])
+
+
+def test_an_undeclared_texture_is_a_graph_error():
+    g = PassGraph()
+    g.quantity("position", -1, 1)
+    g.add("p", "examples/drift.frag", writes="position", textures=["feild"])
+    with pytest.raises(GraphError, match="samples texture 'feild', which is not declared"):
+        g.plan()
+
+
+def test_post_stage_uniforms_follow_the_same_policy(gl):
+    group = gl.group()
+    try:
+        bright = FullscreenCommand(group, "post/bright.frag", "post stage bloom bright")
+        bright.set("u_threshold", 0.5)
+        with pytest.raises(ParameterError, match=r"post stage bloom bright \(post/bright.frag\): "
+                                                 "uniform 'u_treshold' is given, but the shader "
+                                                 "does not declare it"):
+            bright.set("u_treshold", 0.5)
+        target = group.texture((4, 4))
+        with pytest.raises(ParameterError, match="sampler 'u_source' is used by the shader but "
+                                                 "nothing feeds it"):
+            bright.draw(group.framebuffer(target), {})
+    finally:
+        group.release()
+
+
+def test_gl_state_is_restored_when_an_exception_passes_through(gl):
+    group = gl.group()
+    try:
+        target = group.texture((4, 4), "rgba32f")
+        fbo = group.framebuffer(target)
+        constant = FullscreenCommand(group, "lib/constant.frag", "test")
+        constant.set("u_colour", (0.25, 0.25, 0.25, 0.25))
+        with pytest.raises(RuntimeError):
+            with gl.scope(fbo, blend="add"):
+                raise RuntimeError("between enable and disable")
+        fbo.clear(0, 0, 0, 0)
+        fbo.use()
+        for _ in range(2):  # without blending, the second draw replaces the first
+            constant.vao.render()
+        value = np.frombuffer(target.read(), np.float32)[0]
+        assert value == 0.25, "blending was left on"
+    finally:
+        group.release()
+
+
+class NoLife(DeJong):
+    name = "nolife"
+    render_reads = ("position", "life")
+
+
+def test_a_render_input_no_pass_writes_is_a_plan_time_error(gl):
+    before = gl.live_objects()
+    with pytest.raises(GraphError, match="the renderer reads 'life', which scene 'nolife' does "
+                                         "not declare"):
+        Pipeline(gl, NoLife(), particles=64, size=(16, 16))
+    assert gl.live_objects() == before
+
+
+def test_a_pipeline_releases_everything_it_made(gl):
+    before = gl.live_objects()
+    with Pipeline(gl, DeJong(), particles=256, size=(32, 32)) as pipeline:
+        pipeline.warm_up()
+        image = pipeline.image()
+    assert image.shape == (32, 32, 3) and image.any()
+    after = gl.live_objects()
+    after.pop("Program", None), before.pop("Program", None)  # programs are cached
+    assert after == before

@@ -10,12 +10,13 @@ from .context import Capabilities, Context, open_context
 from .errors import (CapabilityError, ContextError, Es2ParticlesError, GraphError, ParameterError,
                      ShaderError)
 from .graph import Pass, PassGraph, Plan
+from .pipeline import Pipeline
 from .simulation import Simulation
 from .state import Layout, Quantity
 
 __version__ = "0.1.0"
 __all__ = [
     "Capabilities", "CapabilityError", "Context", "ContextError", "Es2ParticlesError",
-    "GraphError", "Layout", "ParameterError", "Pass", "PassGraph", "Plan", "Quantity",
+    "GraphError", "Layout", "ParameterError", "Pass", "PassGraph", "Pipeline", "Plan", "Quantity",
     "ShaderError", "Simulation", "open_context",
 ]

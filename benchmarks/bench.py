@@ -25,11 +25,12 @@ from peers import NumpyDeJong, NumpyFrame, datashader_dejong, png_bytes  # noqa:
 
 from es2particles import open_context  # noqa: E402
 from es2particles.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
-from es2particles.measure import timings  # noqa: E402
+from es2particles.report.measure import timings  # noqa: E402
 from es2particles.output import encode_png  # noqa: E402
 from es2particles.pipeline import Pipeline  # noqa: E402
 from es2particles.post import Bloom  # noqa: E402
-from es2particles.scenes.collision import Collision, step_reference  # noqa: E402
+from es2particles.scenes.collision import Collision  # noqa: E402
+from es2particles.twins.particle import step_reference  # noqa: E402
 from es2particles.scenes.dejong import DeJong  # noqa: E402
 
 SIZE = (1024, 1024)
@@ -65,10 +66,9 @@ def ours(ctx, scene_name, count, repeats):
         else:
             collision_steady(p, np.random.default_rng(0))
         finish = ctx.mgl.finish
-        position, life = p.sim.buffers["position"], p.sim.buffers.get("life")
         rows = {"step": timed(lambda: p.step(1), repeats, finish),
-                "render": timed(lambda: p.renderer.draw(position, life), repeats, finish)}
-        density = p.renderer.target
+                "render": timed(lambda: p.renderer.draw(p.sim.buffers), repeats, finish)}
+        density = p.renderer.density
         rows["post"] = timed(lambda: p.post.apply(density), repeats, finish)
         final = p.post.apply(density)
         rows["readback"] = timed(lambda: p.post.read(final), repeats)

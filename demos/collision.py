@@ -34,7 +34,7 @@ def main():
         with Pipeline(ctx, scene, PARTICLES, SIZE, point_size=2.0, gradient="gold",
                       bloom=Bloom(threshold=0.5)) as pipeline:
             print(pipeline.plan())
-            pipeline.step(scene.default_steps)
+            pipeline.warm_up()
             print("wrote", save_image(pipeline.image(), out / "collision.png"))
             frames = []
             for _ in range(FRAMES):

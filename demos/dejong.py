@@ -39,7 +39,7 @@ def main():
         scene = DeJong(COEFFICIENTS, reseed=RESEED, animate_to=ANIMATE_TO)
         with Pipeline(ctx, scene, PARTICLES, SIZE, gradient=GRADIENT, bloom=Bloom()) as pipeline:
             print(pipeline.plan())
-            pipeline.step(scene.default_steps)
+            pipeline.warm_up()
             print("wrote", save_image(pipeline.image(), out / "dejong.png"))
             frames = []
             for frame in range(24):

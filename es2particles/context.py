@@ -347,7 +347,7 @@ def _probe_store_rule(ctx):
     Channel values are chosen between the models' answers: (10.6)/255 gives 11 under rounding and
     10 under truncation or floor(256c); (200.7)/255 gives 200 under truncation and 201 otherwise.
     """
-    from .packing import store_unorm8
+    from .twins.pack import store_unorm8
 
     colour = np.array([10.6, 200.7, 100.3, 254.9], dtype=np.float32) / np.float32(255)
     got = _draw_constant(ctx, "rgba8", colour, blend=False)

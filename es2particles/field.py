@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import packing
+from .twins import pack as packing
 from .context import FORMAT_DTYPES, bytes_per_texel
 from .errors import ParameterError, check_range
 

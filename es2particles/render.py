@@ -115,8 +115,8 @@ class PointRenderer:
             self.program["u_colour"].value = (self.intensity * self.scale,) * 4
             self.texels = self.group.buffer(layout.texel_uv().tobytes())
             self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
-            self.target = self.group.texture(self.size, self.format, filter_nearest=False)
-            self.framebuffer = self.group.framebuffer(self.target)
+            self.density = self.group.texture(self.size, self.format, filter_nearest=False)
+            self.framebuffer = self.group.framebuffer(self.density)
         except Exception:
             self.group.release()
             raise
@@ -159,7 +159,7 @@ class PointRenderer:
                 self.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)
                 if step < count:
                     self.ctx.flush()
-        return self.target
+        return self.density
 
     def release(self):
         self.group.release()

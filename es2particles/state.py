@@ -2,7 +2,7 @@
 
 One quantity (position, velocity, colour, ...) is 1 to 4 numbers per particle, one texel per
 particle. In the default ``rgba8`` format each number is 16-bit fixed point over the quantity's
-declared world range [lo, hi] (see ``packing.py``), two numbers to a texel, so a quantity of three
+declared world range [lo, hi] (see ``twins/pack.py``), two numbers to a texel, so a quantity of three
 or four components spans two textures (its *parts*); ``rgba16f``/``rgba32f`` store the values
 themselves, clamped into the range, up to four in one texture. Particle i lives at texel
 (i mod width, i div width); texels past the particle count are spare: they are computed like the
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import packing
+from .twins import pack as packing
 from .context import bytes_per_texel, numpy_dtype
 from .errors import ParameterError, check_range
 

@@ -5,7 +5,8 @@ import pytest
 
 from es2particles import ParameterError, Simulation
 from es2particles.field import Box, Circle, CollisionField
-from es2particles.scenes.collision import RECT, Collision, Physics, step_reference
+from es2particles.scenes.collision import RECT, Collision, Physics
+from es2particles.twins.particle import step_reference
 
 POSITION_HALF_CODE = 2 / 65025 / 2  # range [-1, 1]
 VELOCITY_HALF_CODE = 16 / 65025 / 2  # range [-8, 8]

@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from conftest import run_fullscreen
-from es2particles import packing
+from es2particles.twins import pack as packing
 
 STEP = 1 / 65025
 F32_EPS = 2.0 ** -24  # float32 rounding of a value in [0, 1]

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from es2particles import measure
+from es2particles.report import measure
 from es2particles.cli import main
 
 

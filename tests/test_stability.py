@@ -6,7 +6,7 @@ import pytest
 from es2particles import PassGraph, Simulation
 from es2particles.scenes.collision import Collision, Physics
 from es2particles.scenes.dejong import DeJong, dejong_map
-from es2particles.stability import free_scene, run_particles
+from es2particles.report.stability import free_scene, run_particles
 from es2particles.state import Layout
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from . import charts, measure, stability
-from .progress import progress
+from ..progress import progress
 
 QUICK = {"dejong_n": (10, 14, 16), "collision_n": (10, 12), "dt_k": range(4, 11),
          "horizon": 0.25, "cycles": (2 ** 14, 400), "largest": False}

@@ -8,12 +8,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from .field import Box, CollisionField
-from .graph import PassGraph
+from ..field import Box, CollisionField
+from ..graph import PassGraph
+from ..scenes.collision import RECT, Collision, Physics
+from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
+from ..simulation import Simulation
 from .measure import density_distance
-from .scenes.collision import RECT, Collision, Physics
-from .scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
-from .simulation import Simulation
 
 
 
@@ -161,7 +161,7 @@ def sizes(ctx, largest):
             sim.step()
             texels = sim.buffers["position"].read_texels()
             pick = np.random.default_rng(0).choice(n, size=min(n, 10 ** 6), replace=False)
-            from .packing import state_decode
+            from ..twins.pack import state_decode
 
             q = sim.buffers["position"].quantity
             got = state_decode(texels[pick], q.lo32, q.span32)

@@ -12,12 +12,13 @@ import time
 
 import numpy as np
 
-from .field import CollisionField
-from .pipeline import Pipeline
-from .post import Bloom
-from .scenes.collision import RECT, Collision, Physics, step_reference
-from .scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
-from .simulation import Simulation
+from ..field import CollisionField
+from ..pipeline import Pipeline
+from ..post import Bloom
+from ..scenes.collision import RECT, Collision, Physics
+from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
+from ..simulation import Simulation
+from ..twins.particle import step_reference
 
 
 def timings(function, finish=lambda: None, repeats=5):

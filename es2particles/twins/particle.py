@@ -1,0 +1,81 @@
+"""numpy twin of ``lib/particle.glsl`` (float64) and ``lib/hash.glsl`` (float32): one step of a
+collision-scene particle, the independent reference of tests/test_collision.py and the report."""
+
+import numpy as np
+
+from ..scenes.collision import MAX_SUBSTEPS
+
+def hash44(p4):
+    """numpy twin of ``hash44`` in ``lib/hash.glsl`` (float32, like the GPU)."""
+    f = np.float32
+    p4 = np.asarray(p4, np.float32)
+    p4 = p4 * np.array([0.1031, 0.1030, 0.0973, 0.1099], f)
+    p4 = p4 - np.floor(p4)
+    p4 = p4 + np.sum(p4 * (p4[..., [3, 2, 0, 1]] + f(33.33)), axis=-1, keepdims=True)
+    out = (p4[..., [0, 0, 1, 2]] + p4[..., [1, 2, 2, 3]]) * p4[..., [2, 1, 3, 0]]
+    return out - np.floor(out)
+
+
+def acceleration(x, p):
+    ox, oy, w2 = p.spring
+    return np.asarray(p.gravity, float) + w2 * (np.array([ox, oy]) - x)
+
+
+def respond(x, v, a, d, n, hit, p):
+    vn = np.sum(v * n, axis=-1)
+    turn = hit & (vn < 0)
+    speed = np.hypot(v[:, 0], v[:, 1])
+    along = v - vn[:, None] * n
+    along_len = np.hypot(along[:, 0], along[:, 1])
+    turned = np.stack([-n[:, 1], n[:, 0]], -1)
+    has_tangent = along_len > 1e-6 * speed
+    t = np.where(has_tangent[:, None], along / np.where(has_tangent, along_len, 1)[:, None], turned)
+    new_v = speed[:, None] * (n * p.sliding + t * (1 - p.sliding)) * p.bounce
+    v = np.where(turn[:, None], new_v, v)
+    x = np.where(hit[:, None], x - d[:, None] * n, x)
+    v2 = np.sum(v * v, axis=-1)
+    scale = np.sqrt(np.maximum(v2 - 2 * d * np.sum(a * n, axis=-1), 0) / np.where(v2 > 0, v2, 1))
+    v = np.where((hit & (v2 > 0))[:, None], v * scale[:, None], v)
+    return x, v
+
+
+def collide(x, v, a, field, p):
+    d, n = field.sample(x)
+    x, v = respond(x, v, a, d.astype(np.float64), n, d < 0, p)
+    x0, y0, x1, y1 = field.rect
+    for axis, edge, sign in ((0, x0, 1.0), (0, x1, -1.0), (1, y0, 1.0), (1, y1, -1.0)):
+        depth = sign * (x[:, axis] - edge)
+        normal = np.zeros_like(x)
+        normal[:, axis] = sign
+        x, v = respond(x, v, a, depth, normal, depth < 0, p)
+    return x, v
+
+
+def integrate(x, v, field, p):
+    a0 = acceleration(x, p)
+    reach = (np.hypot(v[:, 0], v[:, 1]) + np.hypot(a0[:, 0], a0[:, 1]) * p.dt) * p.dt
+    fixed = p.fixed_substeps(field)
+    n = np.full(len(x), fixed) if fixed > 0 else np.ceil(reach / (0.5 * field.cell))
+    n = np.clip(n, 1, MAX_SUBSTEPS)
+    h = p.dt / n
+    kh = p.drag * h
+    decay = np.exp(-kh)
+    gain = np.where(kh < 1e-3, h * (1 - 0.5 * kh), (1 - decay) / max(p.drag, 1e-300))
+    for i in range(int(n.max()) if len(n) else 0):
+        active = (i < n)[:, None]
+        a = acceleration(x, p)
+        v_new = v * decay[:, None] + a * gain[:, None]
+        x_new = x + v_new * h[:, None]
+        x_new, v_new = collide(x_new, v_new, a, field, p)
+        x, v = np.where(active, x_new, x), np.where(active, v_new, v)
+    return x, v
+
+
+def step_reference(x, v, life, field, p):
+    """One step of every particle in float64, without respawn (tests keep lifetimes long)."""
+    x, v, life = (np.array(a, dtype=np.float64) for a in (x, v, life))
+    alive = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+    xi, vi = integrate(x[alive], v[alive], field, p)
+    x[alive], v[alive] = xi, vi
+    life[:, 0] += p.dt
+    return x, v, life

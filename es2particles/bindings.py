@@ -142,13 +142,13 @@ def _own_uniforms(out, uniforms):
         out.uniforms[name] = kind
 
 
-PRELUDE = ["precision highp float;", "precision highp sampler2D;", '#include "lib/state.glsl"']
+PRELUDE = ["precision highp float;", "precision highp sampler2D;", '#include "lib/state.glsl"',
+           "uniform vec2 u_state_size;", "uniform float u_count;"]
 
 
 def pass_interface(spec, quantities, fmt, part=0):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.graph.Pass`)."""
-    out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;", "uniform vec2 u_state_size;",
-                                           "uniform float u_count;"])
+    out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"])
     for name in spec.reads:
         _reader(out, quantities[name], fmt, this_step=False)
     for name in spec.reads_new:

@@ -24,6 +24,7 @@ import numpy as np
 from ..errors import ParameterError, check_range
 from ..field import CollisionField, parse_shape
 from ..graph import PassGraph
+from ..twins.life import life_range, staggered_births
 from .base import Defaults, Scene
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
@@ -153,7 +154,7 @@ class Collision(Scene):
         g = PassGraph()
         g.quantity("position", RECT[:2], RECT[2:])
         g.quantity("velocity", -p.max_speed, p.max_speed)
-        g.quantity("life", (-p.max_age, 0.0), (p.max_age, p.max_age))
+        g.quantity("life", *life_range(p.max_age))
         g.texture("field", self.field.texels())
         state = ("position", "velocity", "life")
         motion = {**p.life_uniforms(), **p.motion_uniforms(self.field)}
@@ -167,11 +168,10 @@ class Collision(Scene):
 
     def start(self, count, rng):
         p = self.physics
-        # Not yet born, with birth delays spread evenly over the longest lifetime: emission runs
-        # at its steady rate from the start, and after one lifetime the fountain is steady.
-        life = np.zeros((count, 2))
-        life[:, 0] = -rng.uniform(0, p.lifetime[1], count) if p.emit else 0.0
-        life[:, 1] = rng.uniform(*p.lifetime, count) if p.emit else p.max_age
+        if p.emit:
+            life = staggered_births(count, p.lifetime, rng)
+        else:  # born now, living as long as the range allows
+            life = np.tile([0.0, p.max_age], (count, 1))
         return {"life": life, "position": np.tile(p.emitter, (count, 1))}
 
     def describe(self):

@@ -4,8 +4,9 @@ independent reference.
 
 - ``pack.py``: ``lib/pack.glsl`` and ``lib/state.glsl`` (packing, state codecs); uploads and
   downloads use it too.
-- ``particle.py``: ``lib/particle.glsl`` and ``lib/hash.glsl`` (the collision scene's step, in
-  float64).
+- ``life.py``: ``lib/life.glsl`` and ``lib/hash.glsl`` (the particle life cycle: age, emission,
+  fade, staggered births), shared by the scenes that emit particles.
+- ``particle.py``: ``lib/particle.glsl`` (the collision scene's step, in float64).
 - The attractor maps sit with their scenes, one function beside each member
   (``scenes/dejong.py``: ``dejong_map``, ``scenes/clifford.py``: ``clifford_map``): a member is
   its map in GLSL and in numpy.

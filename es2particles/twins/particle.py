@@ -4,17 +4,7 @@ collision-scene particle, the independent reference of tests/test_collision.py a
 import numpy as np
 
 from ..scenes.collision import MAX_SUBSTEPS
-
-def hash44(p4):
-    """numpy twin of ``hash44`` in ``lib/hash.glsl`` (float32, like the GPU)."""
-    f = np.float32
-    p4 = np.asarray(p4, np.float32)
-    p4 = p4 * np.array([0.1031, 0.1030, 0.0973, 0.1099], f)
-    p4 = p4 - np.floor(p4)
-    p4 = p4 + np.sum(p4 * (p4[..., [3, 2, 0, 1]] + f(33.33)), axis=-1, keepdims=True)
-    out = (p4[..., [0, 0, 1, 2]] + p4[..., [1, 2, 2, 3]]) * p4[..., [2, 1, 3, 0]]
-    return out - np.floor(out)
-
+from .life import alive
 
 def acceleration(x, p):
     ox, oy, w2 = p.spring
@@ -74,8 +64,8 @@ def integrate(x, v, field, p):
 def step_reference(x, v, life, field, p):
     """One step of every particle in float64, without respawn (tests keep lifetimes long)."""
     x, v, life = (np.array(a, dtype=np.float64) for a in (x, v, life))
-    alive = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
-    xi, vi = integrate(x[alive], v[alive], field, p)
-    x[alive], v[alive] = xi, vi
+    living = alive(life)
+    xi, vi = integrate(x[living], v[living], field, p)
+    x[living], v[living] = xi, vi
     life[:, 0] += p.dt
     return x, v, life

@@ -5,6 +5,7 @@
 // them and u_view, u_point_size are declared by the renderer (es2particles/bindings.py).
 attribute vec2 a_texel;
 #ifdef AGE_FADE
+#include "lib/life.glsl"
 varying float v_fade;
 #endif
 
@@ -17,8 +18,8 @@ void main()
     // life = (age, lifetime): fade out as the particle gets older; unborn (age < 0) and dead
     // (age >= lifetime) ones are moved outside the clip volume, so they are never drawn.
     vec2 life = read_life(a_texel);
-    v_fade = clamp(1.0 - life.x / max(life.y, 1e-6), 0.0, 1.0);
-    if (!(life.x >= 0.0 && life.x < life.y)) {
+    v_fade = life_fade(life);
+    if (!life_alive(life)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
     }
 #endif

@@ -1,9 +1,9 @@
 // One step of a collision-scene particle: forces, sub-stepped integration, collision response
 // against the distance/normal field, lifetime and respawn. Every pass of the scene calls
 // particle_step() with the same inputs, so each computes the same particle and writes its own
-// part of it (ES 2.0: one render target per pass). numpy twin: scenes/collision.py.
+// part of it (ES 2.0: one render target per pass). numpy twin: es2particles/twins/particle.py.
 #include "lib/state.glsl"
-#include "lib/hash.glsl"
+#include "lib/life.glsl"
 
 #ifndef MAX_SUBSTEPS
 #define MAX_SUBSTEPS 256
@@ -116,8 +116,7 @@ void integrate(inout vec2 x, inout vec2 v)
 
 Particle spawn(vec2 uv)
 {
-    vec2 texel = floor(uv * u_state_size);
-    vec4 r = hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0)));
+    vec4 r = life_random(uv);
     float angle = u_emitter.z + (r.x - 0.5) * u_emitter.w;
     vec2 direction = vec2(cos(angle), sin(angle));
     // Born at a random moment within the step, so a stream leaves the emitter smoothly rather
@@ -155,12 +154,10 @@ Particle particle_step(vec2 x, vec2 v, vec2 life, vec2 uv)
     p.x = x;
     p.v = v;
     p.life = vec2(life.x + u_dt, life.y);
-    bool born = life.x < 0.0 && p.life.x >= 0.0;
-    bool ended = life.x < life.y && p.life.x >= life.y;
-    if ((born || ended) && u_emit > 0.5) {
+    if (life_emits(life, p.life) && u_emit > 0.5) {
         return spawn(uv);
     }
-    if (life.x >= 0.0 && life.x < life.y) {
+    if (life_alive(life)) {
 #ifndef WRITE_LIFE
         integrate(p.x, p.v);
 #endif

@@ -1,0 +1,65 @@
+"""One particle life cycle, shared by the scenes that emit particles: the numpy twin of
+``lib/life.glsl`` and the staggered start that goes with it.
+
+A particle's life is (age, lifetime): age < 0 is not yet born, 0 <= age < lifetime alive, older
+dead. Each step ages it by dt; one that is born or dies during the step is emitted, with
+randomness from ``life_random`` (a hash of its texel and the step number).
+"""
+
+import numpy as np
+
+
+def life_range(max_age):
+    """(lo, hi) of the ``life`` quantity: age in [-max_age, max_age], lifetime in [0, max_age]."""
+    return (-max_age, 0.0), (max_age, max_age)
+
+
+def staggered_births(count, lifetime, rng):
+    """A start of ``count`` unborn particles, (count, 2): birth delays spread evenly over the
+    longest lifetime, lifetimes uniform in ``lifetime`` = (min, max). Emission then runs at its
+    steady rate from the first step, and after one longest lifetime the stream is steady."""
+    life = np.empty((count, 2))
+    life[:, 0] = -rng.uniform(0, lifetime[1], count)
+    life[:, 1] = rng.uniform(*lifetime, count)
+    return life
+
+
+def alive(life):
+    """``life_alive``: born and not yet dead, per particle."""
+    life = np.asarray(life)
+    return (life[..., 0] >= 0) & (life[..., 0] < life[..., 1])
+
+
+def emits(life, aged):
+    """``life_emits``: born or dead during the step that aged ``life`` to ``aged``."""
+    life, aged = np.asarray(life), np.asarray(aged)
+    born = (life[..., 0] < 0) & (aged[..., 0] >= 0)
+    ended = (life[..., 0] < life[..., 1]) & (aged[..., 0] >= life[..., 1])
+    return born | ended
+
+
+def fade(life):
+    """``life_fade``: 1 at birth, 0 at the end of life."""
+    life = np.asarray(life, dtype=np.float32)
+    return np.clip(1 - life[..., 0] / np.maximum(life[..., 1], np.float32(1e-6)), 0, 1)
+
+
+def life_random(uv, step, state_size):
+    """``life_random``: four numbers in [0, 1) per particle for texel coordinates ``uv`` (N, 2)
+    and step number ``step`` (float32, as the GPU)."""
+    texel = np.floor(np.asarray(uv, np.float32) * np.asarray(state_size, np.float32))
+    step = np.float32(step)
+    columns = np.broadcast_to([np.fmod(step, np.float32(4096)), np.floor(step / np.float32(4096))],
+                              texel.shape)
+    return hash44(np.concatenate([texel, columns], axis=-1))
+
+
+def hash44(p4):
+    """numpy twin of ``hash44`` in ``lib/hash.glsl`` (float32, like the GPU)."""
+    f = np.float32
+    p4 = np.asarray(p4, np.float32)
+    p4 = p4 * np.array([0.1031, 0.1030, 0.0973, 0.1099], f)
+    p4 = p4 - np.floor(p4)
+    p4 = p4 + np.sum(p4 * (p4[..., [3, 2, 0, 1]] + f(33.33)), axis=-1, keepdims=True)
+    out = (p4[..., [0, 0, 1, 2]] + p4[..., [1, 2, 2, 3]]) * p4[..., [2, 1, 3, 0]]
+    return out - np.floor(out)

@@ -106,8 +106,6 @@ class Simulation:
     fmt : str
         Storage format: ``rgba8`` (16-bit packed, default), ``rgba16f``, ``rgba32f``, or ``auto``
         (the most precise one the context can render to; ``format_note`` says which).
-    defines : mapping, optional
-        ``#define`` lines for every pass.
     rounding : str
         How the packed format rounds on write: ``nearest``, or ``dither`` (stochastic, from a hash
         of particle and step: deterministic, unbiased, so sub-code changes are not lost).

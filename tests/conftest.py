@@ -83,3 +83,16 @@ def wide_graph(shift=(0.1, 0.2, 0.3, 0.4)):
           reads_new=["position"])
     g.add("mass", shader("wide_mass.frag"), writes="mass", reads=["mass"])
     return g
+
+
+def run_scene(gl, scene, count, steps, seed, rounding=None):
+    """Decoded positions (start, after ``steps``) of ``scene`` simulated from its own start:
+    the GPU side of the float64 comparisons. Rounding: the given one, else the scene's default."""
+    from es2particles import Simulation
+
+    rounding = scene.defaults.rounding if rounding is None else rounding
+    with Simulation(gl, scene.graph(), count, rounding=rounding) as sim:
+        scene.initialise(sim, np.random.default_rng(seed))
+        start = sim.download("position")
+        sim.run(steps)
+        return start, sim.download("position")

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from conftest import run_scene
 from es2particles import Simulation
 from es2particles.cli import main
 from es2particles.scenes import Clifford
@@ -45,11 +46,7 @@ def test_view_and_range_come_from_the_coefficients():
 
 def test_one_step_matches_float64(gl):
     scene = Clifford(ISSUE_COEFFICIENTS)
-    with Simulation(gl, scene.graph(), 2 ** 16, rounding="nearest") as sim:
-        scene.initialise(sim, np.random.default_rng(5))
-        start = sim.download("position")
-        sim.step()
-        got = sim.download("position")
+    start, got = run_scene(gl, scene, 2 ** 16, 1, seed=5, rounding="nearest")
     error = np.abs(got - reference(scene, start, 3)).max()
     bound = one_step_bound(scene, 3)
     print(f"Clifford one step: max |error| {error:.3e} (bound {bound:.3e})")
@@ -58,12 +55,8 @@ def test_one_step_matches_float64(gl):
 
 def test_stateful_density_correlates_with_float64(gl):
     scene = Clifford(ISSUE_COEFFICIENTS)  # stateful, dithered: the scene's defaults
-    n, steps = 2 ** 18, 20
-    with Simulation(gl, scene.graph(), n, rounding=scene.defaults.rounding) as sim:
-        scene.initialise(sim, np.random.default_rng(7))
-        start = sim.download("position")
-        sim.run(steps)
-        got = sim.download("position")
+    steps = 20
+    start, got = run_scene(gl, scene, 2 ** 18, steps, seed=7)
     exact = start.copy()
     for _ in range(steps):
         exact = reference(scene, exact, 3)

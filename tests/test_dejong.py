@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from conftest import run_scene
 from es2particles import Simulation
 from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 
@@ -30,13 +31,8 @@ def histogram(points, bins):
 
 @pytest.mark.parametrize("coefficients", [ARTICLE_COEFFICIENTS, (2.01, -2.53, 1.61, -0.33)])
 def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coefficients):
-    scene = DeJong(coefficients, iterations=3)
-    n = 2 ** 16
-    with Simulation(gl, scene.graph(), n) as sim:
-        scene.initialise(sim, np.random.default_rng(5))
-        start = sim.download("position")  # the decoded state the GPU starts from
-        sim.step()
-        got = sim.download("position")
+    start, got = run_scene(gl, DeJong(coefficients, iterations=3), 2 ** 16, 1, seed=5,
+                           rounding="nearest")
     error = np.abs(got - reference(start, coefficients, 3)).max()
     bound = one_step_bound(coefficients, 3)
     print(f"de Jong one step {coefficients}: max |error| = {error:.3e} world units "
@@ -45,13 +41,9 @@ def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coeffici
 
 
 def test_density_after_20_stateful_steps_correlates_with_float64(gl):
-    scene = DeJong(ARTICLE_COEFFICIENTS)
-    n, steps = 2 ** 18, 20
-    with Simulation(gl, scene.graph(), n) as sim:
-        scene.initialise(sim, np.random.default_rng(7))
-        start = sim.download("position")
-        sim.run(steps)
-        got = sim.download("position")
+    steps = 20
+    start, got = run_scene(gl, DeJong(ARTICLE_COEFFICIENTS), 2 ** 18, steps, seed=7,
+                           rounding="nearest")
     exact = start.copy()
     for _ in range(steps):
         exact = reference(exact, ARTICLE_COEFFICIENTS, 3)

@@ -178,3 +178,20 @@ def test_a_pipeline_releases_everything_it_made(gl):
     after = gl.live_objects()
     after.pop("Program", None), before.pop("Program", None)  # programs are cached
     assert after == before
+
+
+def test_pipeline_takes_the_scene_defaults_resolved_once(gl):
+    from es2particles.field import CollisionField
+    from es2particles.scenes import Collision
+    from es2particles.scenes.collision import RECT
+
+    scene = Collision(field=CollisionField(RECT, [], resolution=(8, 8)))
+    with Pipeline(gl, scene, size=(16, 16)) as pipeline:
+        assert pipeline.renderer.point_size == 2.0  # once 1: the CLI alone knew the default
+        assert pipeline.sim.count == 2 ** 17 and pipeline.sim.rounding == "dither"
+        assert pipeline.steps == scene.defaults.steps == 300
+        assert pipeline.renderer.reads == ("position", "life")
+    with Pipeline(gl, scene, particles=64, size=(16, 16), point_size=3.0, steps=0,
+                  rounding="nearest") as pipeline:
+        assert (pipeline.renderer.point_size, pipeline.sim.count, pipeline.steps,
+                pipeline.sim.rounding) == (3.0, 64, 0, "nearest")

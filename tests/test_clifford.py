@@ -26,7 +26,7 @@ def one_step_bound(scene, iterations):
     a, b, c, d = (abs(k) for k in scene.coefficients)
     lipschitz = max(a * (1 + c), b * (1 + d), 1.0)
     x0, y0, x1, y1 = scene.view
-    half_code = max(x1 - x0, y1 - y0) / 65025 / 2
+    half_code = max(x1 - x0, y1 - y0) / 65024 / 2
     return half_code + sum(lipschitz ** i for i in range(iterations)) * 2 * TRIG_EPS * (1 + max(c, d))
 
 

@@ -8,8 +8,8 @@ from es2particles.field import Box, Circle, CollisionField
 from es2particles.scenes.collision import RECT, Collision, Physics
 from es2particles.twins.particle import step_reference
 
-POSITION_HALF_CODE = 2 / 65025 / 2  # range [-1, 1]
-VELOCITY_HALF_CODE = 16 / 65025 / 2  # range [-8, 8]
+POSITION_HALF_CODE = 2 / 65024 / 2  # range [-1, 1]
+VELOCITY_HALF_CODE = 16 / 65024 / 2  # range [-8, 8]
 F32 = 1e-6  # float32 arithmetic over a sub-stepped step, in position units
 # Velocity goes through more float32 operations (decay, response, energy rescale) in each of up to
 # ~20 sub-steps at speeds up to 8: about 20 x 5 x 2^-24 x 8 = 5e-5.
@@ -266,7 +266,7 @@ def test_emission_matches_the_life_cycle_twin(gl):
     r = life_random(uv, step, size).astype(np.float64)
     expected_age = r[:, 3] * physics.dt
     expected_lifetime = 2.0 + 2.0 * r[:, 2]
-    code = 2 * physics.max_age / 65025  # one code of the life range
+    code = 2 * physics.max_age / 65024  # one code of the life range
     # The hash takes fract() of float32 products of numbers up to ~400: ulp-level differences
     # (the driver may fuse multiply-adds) reach ~4e-3 in r (measured 3.9e-3 on llvmpipe), so the
     # twin is not bit-exact there. A wrong formula (another r component, another range) is O(1).

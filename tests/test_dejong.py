@@ -7,7 +7,7 @@ from conftest import run_scene
 from es2particles import Simulation
 from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 
-HALF_STEP = 2 / 65025  # half a code of the packed range [-2, 2]
+HALF_STEP = 2 / 65024  # half a code of the packed range [-2, 2]
 TRIG_EPS = 2.0 ** -20  # a generous float32 sin/cos error on arguments of a few units
 
 

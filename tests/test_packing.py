@@ -1,7 +1,7 @@
 """Precision of the 16-bit pack/unpack: on the GPU, in the numpy twin, and at the edges.
 
 References are float64 numpy or plain integer arithmetic on the bytes, never the code under test:
-a byte pair (H, L) means (255 H + L) / 65025 by definition.
+a byte pair (H, L) means (255 H + L) / 65024 by definition.
 """
 
 import numpy as np
@@ -12,14 +12,14 @@ from hypothesis import strategies as st
 from conftest import run_fullscreen
 from es2particles.twins import pack as packing
 
-STEP = 1 / 65025
+STEP = 1 / 65024
 F32_EPS = 2.0 ** -24  # float32 rounding of a value in [0, 1]
 
 
 def bytes_value(pairs):
     """Independent decode of (H, L) byte pairs, float64."""
     pairs = np.asarray(pairs, dtype=np.float64)
-    return (255 * pairs[..., 0] + pairs[..., 1]) / 65025
+    return (255 * pairs[..., 0] + pairs[..., 1]) / 65024
 
 
 def gpu_pack(ctx, values):
@@ -61,9 +61,9 @@ def test_all_byte_pairs_survive_unpack_and_repack_on_gpu(gl):
 
 
 def test_float_values_pack_on_gpu_within_half_a_step(gl):
-    k = np.arange(65025, dtype=np.float64)
+    k = np.arange(65024, dtype=np.float64)
     rng = np.random.default_rng(1)
-    x64 = np.concatenate([k / 65025, (k + 0.5) / 65025, rng.random(10 ** 6)])
+    x64 = np.concatenate([k / 65024, (k + 0.5) / 65024, rng.random(10 ** 6)])
     x32 = x64.astype(np.float32)
     got = gpu_pack(gl, x32)
     error = np.abs(bytes_value(got) - x32.astype(np.float64))
@@ -105,9 +105,9 @@ def test_edge_values_follow_the_documented_result_on_gpu_and_numpy(gl):
 
 @pytest.mark.parametrize("rule", packing.STORE_RULES)
 def test_numpy_twin_is_within_one_step_under_every_store_rule(rule):
-    k = np.arange(65025, dtype=np.float64)
+    k = np.arange(65024, dtype=np.float64)
     rng = np.random.default_rng(2)
-    x = np.concatenate([k / 65025, (k + 0.5) / 65025, rng.random(10 ** 5)]).astype(np.float32)
+    x = np.concatenate([k / 65024, (k + 0.5) / 65024, rng.random(10 ** 5)]).astype(np.float32)
     error = np.abs(bytes_value(packing.pack16(x, rule)) - x.astype(np.float64))
     bound = (STEP / 2 if rule == "round" else STEP) + 4 * F32_EPS
     print(f"store rule {rule}: max |error| = {error.max():.3e} (bound {bound:.3e})")
@@ -169,6 +169,6 @@ def test_world_range_round_trip_and_top_of_range(gl):
     finally:
         group.release()
     expected = np.array([[-2, 2], [2, -2], [0, 0], [2, -2], [-2, 2], [1, -1]], dtype=np.float64)
-    world_step = 4 / 65025
+    world_step = 4 / 65024
     assert np.abs(got - expected).max() <= world_step / 2 + 1e-6, got
     assert got[0, 1] == 2.0 and got[1, 0] == 2.0, "the top of the range must stay the top"

@@ -6,7 +6,7 @@ import pytest
 from conftest import shader
 from es2particles import ParameterError, PassGraph, Simulation
 
-WORLD_STEP = 1 / 65025  # grid step of a quantity with range [0, 1]
+WORLD_STEP = 1 / 65024  # grid step of a quantity with range [0, 1]
 
 
 def counter_graph(delta_reads_new=False):
@@ -27,7 +27,7 @@ def test_ping_pong_adds_a_constant_each_step(gl, fmt):
     delta = (300 * WORLD_STEP, 1000 * WORLD_STEP)  # whole codes: exact in the packed format
     with Simulation(gl, counter_graph(), n, outputs=["position"], fmt=fmt) as sim:
         start = np.stack([np.linspace(0, 0.5, n), np.full(n, 0.25)], axis=1)
-        start = np.round(start * 65025) / 65025
+        start = np.round(start * 65024) / 65024
         sim.upload("position", start)
         sim.set_uniform("u_delta", delta)
         sim.run(steps)
@@ -74,7 +74,7 @@ def test_a_user_pass_in_a_few_lines(gl, tmp_path):
         start = np.stack([np.full(10, 0.5), np.full(10, -0.25)], axis=1)
         sim.upload("p", start)
         sim.step()
-        assert np.allclose(sim.download("p"), start[:, ::-1], atol=2 / 65025)
+        assert np.allclose(sim.download("p"), start[:, ::-1], atol=2 / 65024)
 
 
 def test_release_frees_every_gl_object(gl):
@@ -145,7 +145,7 @@ def test_fill_uniform_draws_uniformly_from_the_rectangle(gl, fmt):
         got = sim.download("position")
         sim.fill_uniform("position", lo, hi, np.random.default_rng(3))
         again = sim.download("position")
-    half_code = 4 / 65025 / 2
+    half_code = 4 / 65024 / 2
     assert np.array_equal(got, again)  # the same generator state gives the same points
     assert (got >= lo - half_code).all() and (got <= hi + half_code).all()
     counts, _, _ = np.histogram2d(got[:, 0], got[:, 1], bins=32, range=np.stack([lo, hi], 1))

@@ -16,7 +16,7 @@ def test_stiff_drag_decays_like_the_exact_exponential(gl, k_dt):
     scene = free_scene(drag=k_dt / dt, dt=dt)
     v0 = np.array([[4.0, -3.0]] * 16)
     history = run_particles(gl, scene, np.zeros((16, 2)), v0, 5)
-    half_code = 8 / 65025
+    half_code = 8 / 65024
     for step, (_, v) in enumerate(history, 1):
         exact = 5.0 * np.exp(-k_dt * step)
         speed = np.hypot(*v.T).max()
@@ -164,7 +164,7 @@ def test_tiny_increments_are_kept_on_average_with_dither(gl):
     g = PassGraph()
     g.quantity("position", 0, 1)
     g.add("add", "examples/drift.frag", writes="position", reads=["position"],
-          uniforms={"u_delta": (0.3 / 65025, 0.0)})
+          uniforms={"u_delta": (0.3 / 65024, 0.0)})
     n, steps = 4096, 200
     moved = {}
     for rounding in ("nearest", "dither"):
@@ -172,7 +172,7 @@ def test_tiny_increments_are_kept_on_average_with_dither(gl):
             sim.upload("position", np.full((n, 2), 0.5))
             start = sim.download("position")[:, 0]
             sim.run(steps)
-            moved[rounding] = (sim.download("position")[:, 0] - start) * 65025
+            moved[rounding] = (sim.download("position")[:, 0] - start) * 65024
     expected = 0.3 * steps
     print(f"0.3 code per step for {steps} steps: nearest moved {moved['nearest'].mean():.2f} "
           f"codes, dither {moved['dither'].mean():.2f} (expected {expected:.0f})")

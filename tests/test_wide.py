@@ -18,7 +18,7 @@ def tolerance(fmt, span, value):
     half floats (up to a whole ulp: a driver may round towards zero when it converts to half),
     half an ulp for single floats; plus float32 arithmetic."""
     if fmt == "rgba8":
-        return span / 65025 / 2 + 4e-7 * span
+        return span / 65024 / 2 + 4e-7 * span
     ulp = {"rgba16f": 2.0 ** -10, "rgba32f": 2.0 ** -23}[fmt]
     return np.abs(value) * ulp / 2 + 1e-7
 

@@ -63,8 +63,8 @@ def stiff_drag(ctx, k_dt):
     euler = abs(1 - k_dt) ** 5
     last = np.hypot(*history[-1][1].T).max()
     return Case(f"stiff drag k dt = {k_dt:g}: speed after 5 steps (explicit Euler x{euler:.3g})",
-                f"{last:.3g}", f"<= {5 * np.exp(-5 * k_dt) + 2 * 8 / 65025:.3g} (exact decay)",
-                bool(last <= 5 * np.exp(-5 * k_dt) + 2 * 8 / 65025))
+                f"{last:.3g}", f"<= {5 * np.exp(-5 * k_dt) + 2 * 8 / 65024:.3g} (exact decay)",
+                bool(last <= 5 * np.exp(-5 * k_dt) + 2 * 8 / 65024))
 
 
 def stiff_spring(ctx, omega_dt, steps=120):
@@ -145,7 +145,7 @@ def dejong_extreme(ctx, coefficients):
     error = np.abs(got - np.clip(dejong_map(start, coefficients, 3), -2, 2)).max()
     a, b, c, d = (abs(k) for k in coefficients)
     lip = max(a + b, c + d, 1.0)
-    bound = 2 / 65025 + sum(lip ** i for i in range(3)) * 2 * 2.0 ** -20
+    bound = 2 / 65024 + sum(lip ** i for i in range(3)) * 2 * 2.0 ** -20
     ok = bool(np.all(np.isfinite(got)) and np.abs(got).max() <= 2 and error <= bound)
     return Case(f"de Jong {coefficients}, from points at +-2: one-step error", f"{error:.3g}",
                 f"<= {bound:.3g}", ok)
@@ -210,14 +210,41 @@ def tiny_increments(ctx):
     g = PassGraph()
     g.quantity("position", 0, 1)
     g.add("drift", "examples/drift.frag", writes="position", reads=["position"],
-          uniforms={"u_delta": (0.3 / 65025, 0.0)})
+          uniforms={"u_delta": (0.3 / 65024, 0.0)})
     moved = {}
     for rounding in ("nearest", "dither"):
         with Simulation(ctx, g, 4096, rounding=rounding) as sim:
             sim.upload("position", np.full((4096, 2), 0.5))
             start = sim.download("position")[:, 0]
             sim.run(200)
-            moved[rounding] = float(((sim.download("position")[:, 0] - start) * 65025).mean())
+            moved[rounding] = float(((sim.download("position")[:, 0] - start) * 65024).mean())
     return Case("0.3 code per step for 200 steps (expected 60 codes): nearest / dither moved",
                 f"{moved['nearest']:.2f} / {moved['dither']:.2f} codes", "dither within 2% of 60",
                 bool(abs(moved["dither"] - 60) <= 1.2))
+
+
+# --- numerical defects found by an independent float64 check (issue 11) ------------------------
+
+def _drift_graph(lo, hi, delta=(0.0, 0.0)):
+    """One quantity, position, moved by ``delta`` each step (examples/drift.frag)."""
+    g = PassGraph()
+    g.quantity("position", lo, hi)
+    g.add("drift", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms={"u_delta": tuple(delta)})
+    return g
+
+
+def dither_at_rest(ctx, steps=2000, count=4096):
+    """Values that do not change must not move under dithered rounding: a keep pass (x' = x) on
+    [-8, 8], as a velocity at rest. floor(s + u) in float32 rounds k + u up to k + 1 when u is
+    within half an ulp of 1, which biased every write upward."""
+    rng = np.random.default_rng(0)
+    start = rng.uniform(-8, 8, (count, 2))
+    with Simulation(ctx, _drift_graph(-8, 8), count, rounding="dither") as sim:
+        sim.upload("position", start)
+        first = sim.download("position")
+        sim.run(steps)
+        drift = (sim.download("position") - first) * 65024 / 16  # in codes
+    mean = float(np.abs(drift.mean(axis=0)).max())
+    return Case(f"dithered values at rest, {steps} steps: mean drift", f"{mean:.3f} codes",
+                "< 0.05 codes", bool(mean < 0.05))

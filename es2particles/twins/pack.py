@@ -4,17 +4,20 @@ Each function here has the name and the float32 arithmetic of its GLSL peer, in 
 that the two can be read side by side and the bytes a GPU writes can be predicted exactly (under the
 round-to-nearest store that GL prefers). They are also what uploads and downloads state.
 
-The fixed-point grid: a value x in [0, 1] is stored as bytes (H, L) with H = floor(255 x) and
-L = round(255 fract(255 x)), computed as the nearest code k = round(65025 x), H = k div 255,
-L = k mod 255 (so L never rounds up to 255); it reads back as (255 H + L) / 65025. Results of edge values:
-x >= 1 and +Inf give 1.0 exactly; x <= 0, -Inf and NaN give 0.0.
+The fixed-point grid: a value x in [0, 1] is stored as its nearest code k = round(65024 x),
+k = 0..65024, in bytes H = k div 255, L = k mod 255 (so L never rounds up to 255, and H <= 254);
+it reads back as (255 H + L) / 65024. 65024 steps, not 255 * 255 = 65025: an even count puts a
+code at the middle of every range, so zero in a symmetric range (a velocity at rest) is stored
+exactly. Results of edge values: x >= 1 and +Inf give 1.0 exactly; x <= 0, -Inf and NaN give 0.0.
 """
 
 import numpy as np
 
 F32 = np.float32
-CODES_PER_UNIT = 65025  # 255 * 255: the grid step of a packed value is 1 / 65025
+CODES_PER_UNIT = 65024  # the grid step of a packed value is 1 / 65024 (an even count)
 STORE_RULES = ("round", "truncate", "floor256")
+# Dithered rounding is nearest within this fraction of a code (see pack16_dither in pack.glsl).
+DITHER_DEAD_ZONE = F32(1 / 64)
 
 
 # --- twins of lib/pack.glsl -------------------------------------------------------------------
@@ -47,9 +50,13 @@ def pack16(x, store="round"):
 
 
 def pack16_dither(x, u):
-    """Bytes (..., 2) of ``pack16_dither``: stochastic rounding with noise ``u`` in [0, 1)."""
-    code = np.minimum(np.floor(clamp_unit(x) * F32(CODES_PER_UNIT) + np.asarray(u, F32)),
-                      F32(CODES_PER_UNIT))
+    """Bytes (..., 2) of ``pack16_dither``: stochastic rounding with noise ``u`` in [0, 1):
+    k + 1 with probability f, where 65024 x = k + f."""
+    s = clamp_unit(x) * F32(CODES_PER_UNIT)
+    k = np.floor(s)
+    f = s - k
+    f = np.where(f < DITHER_DEAD_ZONE, F32(0), np.where(f > 1 - DITHER_DEAD_ZONE, F32(1), f))
+    code = np.minimum(k + (np.asarray(u, F32) < f).astype(F32), F32(CODES_PER_UNIT))
     high = np.floor((code + F32(0.5)) * F32(1 / 255))
     return np.stack([store_unorm8(high * F32(1 / 255)),
                      store_unorm8((code - high * F32(255)) * F32(1 / 255))], axis=-1)

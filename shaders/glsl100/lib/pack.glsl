@@ -1,18 +1,23 @@
 // 16-bit fixed point in two 8-bit channels (the ES 2.0 way to keep particle state in RGBA8).
-// A value x in [0,1] becomes high = floor(255x)/255 and low = fract(255x) (rounded to a byte);
-// it reads back as high + low/255, on the grid k/65025, k = 0..65025. Exactly: the nearest code
-// k = round(65025x) is stored as high byte floor(k/255), low byte k mod 255.
-// numpy twins: es2particles/packing.py.
+// A value x in [0,1] is stored as its nearest code k = round(65024x), k = 0..65024: high byte
+// floor(k/255), low byte k mod 255 (so the low byte never rounds up to 255, and high <= 254). It
+// reads back as (255 high + low) / 65024. 65024 steps, not the article's 255 * 255 = 65025: an
+// even count puts a code at the middle of every range, so zero in a symmetric range (a velocity
+// at rest) is stored exactly, where 65025 stored it as half a code.
+// numpy twins: es2particles/twins/pack.py.
 //
 // Differences from the article's formula, on purpose:
-// - The high byte is floor(255x)/255, never fract(x) - fract(255x)/255: that difference can land
+// - The high byte is floor(k/255)/255, never fract(x) - fract(255x)/255: that difference can land
 //   just below H/255, and a driver that truncates on store then loses a whole high step (1/255).
 //   H/255 is stored as H under round-to-nearest, truncation and floor(c*256) alike; so is the low
 //   byte, because the shader rounds it (below) instead of the store.
-// - x is clamped to [0,1] first, so 1.0 stays 1.0 (code 255,0) instead of fract() wrapping it to 0.
+// - x is clamped to [0,1] first, so 1.0 stays 1.0 (bytes 254, 254) instead of fract() wrapping to 0.
 // - NaN maps to 0 (the comparison below is false for NaN), +Inf to 1, -Inf to 0.
 // - Unpacking snaps each channel to the 1/255 grid, so the decode is exact even when the sampler
 //   returns a channel with a little error.
+
+// Dithered rounding rounds to the nearest code within this fraction of one (1/64 code).
+#define DITHER_DEAD_ZONE 0.015625
 
 float clamp_unit(float x)
 {
@@ -31,16 +36,26 @@ vec2 pack16(float x)
     // GL ES only prefers to be round-to-nearest: both channels are then exact multiples of 1/255,
     // stored exactly under rounding, truncation and floor(c*256) alike, and an unpacked value
     // re-packs to the same bytes (floor(255x) of a decoded H/255 can land on H-1 in float32).
-    float code = floor(clamp_unit(x) * 65025.0 + 0.5);
+    float code = floor(clamp_unit(x) * 65024.0 + 0.5);
     float high = floor((code + 0.5) * (1.0 / 255.0));  // +0.5 keeps clear of H-1 at multiples
     return vec2(high, code - high * 255.0) * (1.0 / 255.0);
 }
 
 vec2 pack16_dither(float x, float u)
 {
-    // Stochastic rounding: with u uniform in [0,1), the expected code is exactly 65025x, so a
-    // change smaller than a code still moves the value on average instead of being lost.
-    float code = min(floor(clamp_unit(x) * 65025.0 + u), 65025.0);
+    // Stochastic rounding: with u uniform in [0,1), the code is k + 1 with probability f, where
+    // s = 65024x = k + f, so its expected value is exactly s: a change smaller than a code still
+    // moves the value on average instead of being lost. k and f are taken apart (both exact in
+    // float32) rather than floor(s + u): in float32 k + u rounds up to k + 1 when u is within half
+    // an ulp of 1, which biased every write upward (+2.1 codes after 2000 writes at rest).
+    // Within DITHER_DEAD_ZONE of a code, s is that code: world-unit float32 arithmetic places s
+    // only to a few ulps (ulp(65024) = 2^-7), and dithering that error is a bias of its own
+    // (+0.10 codes after 2000 writes at rest without the zone). A value at rest stays exactly.
+    float s = clamp_unit(x) * 65024.0;
+    float k = floor(s);
+    float f = s - k;
+    f = (f < DITHER_DEAD_ZONE) ? 0.0 : ((f > 1.0 - DITHER_DEAD_ZONE) ? 1.0 : f);
+    float code = min(k + ((u < f) ? 1.0 : 0.0), 65024.0);
     float high = floor((code + 0.5) * (1.0 / 255.0));
     return vec2(high, code - high * 255.0) * (1.0 / 255.0);
 }
@@ -48,7 +63,7 @@ vec2 pack16_dither(float x, float u)
 float unpack16(vec2 channels)
 {
     vec2 bytes = floor(channels * 255.0 + 0.5);
-    return (bytes.x * 255.0 + bytes.y) * (1.0 / 65025.0);
+    return (bytes.x * 255.0 + bytes.y) * (1.0 / 65024.0);
 }
 
 vec4 pack2x16(vec2 x)

@@ -79,7 +79,11 @@ class Capsule:
         ab = b - a
         t = np.clip(((p - a) @ ab) / max(ab @ ab, 1e-300), 0, 1)
         q = p - (a + t[..., None] * ab)
-        return np.hypot(q[..., 0], q[..., 1]) - self.radius, _unit(q, fallback=(0.0, 1.0))
+        # On the centre segment q is 0 and the normal undefined: take the segment's perpendicular
+        # (either side is right for half the particles; collide() in lib/particle.glsl turns it
+        # round for a particle that came from the other side).
+        across = _unit(np.array([-ab[1], ab[0]]), fallback=(0.0, 1.0))
+        return np.hypot(q[..., 0], q[..., 1]) - self.radius, _unit(q, fallback=across)
 
     def bounds(self):
         a, b = np.asarray(self.a, float), np.asarray(self.b, float)
@@ -116,22 +120,25 @@ def walls(p, rect):
 
 def load_mask(path, resolution):
     """Boolean (h, w) solid mask from an image: alpha >= 50% where there is alpha, else dark
-    (luminance < 50%) pixels are solid. Row 0 is the bottom of the scene."""
+    (luminance < 50%) pixels are solid. Row 0 is the bottom of the scene.
+
+    Pixels are classed at the image's own resolution, then a cell is solid if any pixel in it is
+    (an area average above zero): a line one pixel wide survives at any field resolution, where
+    nearest-pixel resampling kept it in one cell of every four (or none at all)."""
     from PIL import Image
 
     try:
         with Image.open(path) as image:
             if "A" in image.getbands():
-                channel = image.getchannel("A")
-                solid_if_high = True
+                values = np.asarray(image.getchannel("A"), dtype=np.float64) / 255
+                pixels = values >= 0.5
             else:
-                channel = image.convert("L")
-                solid_if_high = False
-            channel = channel.resize(resolution, Image.NEAREST)
-            values = np.asarray(channel, dtype=np.float64)[::-1] / 255
+                values = np.asarray(image.convert("L"), dtype=np.float64) / 255
+                pixels = values < 0.5
     except (OSError, ValueError) as error:
         raise ParameterError(f"mask {str(path)!r} cannot be read as an image: {error}") from None
-    solid = values >= 0.5 if solid_if_high else values < 0.5
+    coverage = Image.fromarray(pixels.astype(np.float32), mode="F").resize(resolution, Image.BOX)
+    solid = np.asarray(coverage)[::-1] > 0
     if not solid.any():
         raise ParameterError(f"mask {str(path)!r} is empty: no solid pixels (dark, or opaque "
                              "where the image has alpha)")
@@ -176,8 +183,16 @@ def mask_sdf(solid, cell):
     d_in = np.hypot(to_empty[..., 0] - rows, to_empty[..., 1] - cols)
     # Cell centres: the surface lies half a cell from the nearest cell of the other kind.
     dist = np.where(solid, -(d_in - 0.5), d_out - 0.5) * cell
-    gy, gx = np.gradient(dist)
-    return dist, _unit(np.stack([gx, gy], -1), fallback=(0.0, 1.0))
+    gy, gx = np.gradient(dist / cell)
+    gradient = np.stack([gx, gy], -1)
+    # A distance gradient is 1 long; on a medial axis (inside a line one or two cells thick, say)
+    # it cancels out and points along the wall. There, the outward direction is the one to the
+    # nearest cell of the other kind: towards empty from inside, away from solid from outside.
+    flood = np.where(solid[..., None], np.stack([to_empty[..., 1] - cols, to_empty[..., 0] - rows], -1),
+                     np.stack([cols - to_solid[..., 1], rows - to_solid[..., 0]], -1))
+    degenerate = np.hypot(gx, gy) < 0.5
+    normal = np.where(degenerate[..., None], flood.astype(np.float64), gradient)
+    return dist, _unit(normal, fallback=(0.0, 1.0))
 
 
 # --- the field ---------------------------------------------------------------------------------

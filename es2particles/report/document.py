@@ -66,6 +66,7 @@ def _suite(ctx, settings):
     cycle_cases, figures, floor = stability.grid_cycles(ctx, *settings["cycles"])
     cases += cycle_cases
     cases.append(stability.tiny_increments(ctx))
+    cases += [case(ctx) for case in stability.NUMERICS.values()]
     return cases, _stiff_curves(ctx), (figures, floor, settings["cycles"])
 
 

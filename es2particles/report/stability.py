@@ -8,7 +8,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..field import Box, CollisionField
+from ..field import Box, Capsule, CollisionField
 from ..graph import PassGraph
 from ..scenes.collision import RECT, Collision, Physics
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
@@ -248,3 +248,86 @@ def dither_at_rest(ctx, steps=2000, count=4096):
     mean = float(np.abs(drift.mean(axis=0)).max())
     return Case(f"dithered values at rest, {steps} steps: mean drift", f"{mean:.3f} codes",
                 "< 0.05 codes", bool(mean < 0.05))
+
+
+def _crossings(ctx, field, speed, dt, steps, fmt="rgba8", seed=4, gravity=(0.0, 0.0)):
+    """Particles sent at a vertical wall at x = 0 from the left: how many end right of it."""
+    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=gravity, dt=dt, bounce=1.0),
+                      field=field)
+    rng = np.random.default_rng(seed)
+    n = 4096
+    x = np.stack([rng.uniform(-0.9, -0.05, n), rng.uniform(-0.7, 0.7, n)], 1)
+    v = np.stack([np.full(n, speed), rng.uniform(-0.5, 0.5, n)], 1)
+    history = run_particles(ctx, scene, x, v, steps, fmt=fmt)
+    return max(np.count_nonzero(p[:, 0] > 0.02) for p, _ in history)
+
+
+def one_cell_walls(ctx, resolution=256):
+    """Walls one cell thick at offsets of 0, 1/4, 1/2 and 3/4 cell from the cell grid: the cell
+    on the medial axis holds one normal, and a wall whose faces are not on cell boundaries puts
+    its faces at cell centres. Speed 2, dt 1/60, 60 steps."""
+    cell = 2 / resolution
+    rows = []
+    for offset in (0.0, 0.25, 0.5, 0.75):
+        field = CollisionField(RECT, [Box((offset * cell, 0.0), (0.5 * cell, 1.0))],
+                               resolution=(resolution, resolution))
+        rows.append((offset, _crossings(ctx, field, 2.0, 1 / 60, 60)))
+    worst = max(c for _, c in rows)
+    return Case("one-cell wall at offsets 0, 1/4, 1/2, 3/4 cell (speed 2, dt 1/60): crossed of "
+                "4096", " / ".join(str(c) for _, c in rows), "0", worst == 0)
+
+
+def thin_walls_at_angles(ctx, resolution=256):
+    """Capsules one cell thick (radius half a cell) across the scene at 30, 45 and 60 degrees
+    from the vertical, particles sent at them horizontally: crossed of 4096 at each angle."""
+    cell = 2 / resolution
+    rows = []
+    for degrees in (30, 45, 60):
+        t = np.radians(degrees)
+        half = np.array([np.sin(t), np.cos(t)]) * 2.0
+        field = CollisionField(RECT, [Capsule(tuple(-half), tuple(half), 0.5 * cell)],
+                               resolution=(resolution, resolution))
+        rows.append(_crossed_line(ctx, field, t))
+    return Case("one-cell capsule wall at 30, 45, 60 degrees (speed 2, dt 1/60): crossed of 4096",
+                " / ".join(map(str, rows)), "0", max(rows) == 0)
+
+
+def _crossed_line(ctx, field, t, speed=2.0, dt=1 / 60, steps=60, seed=5):
+    """Particles start on the left of the line through 0 at angle t from the vertical (normal
+    (cos t, -sin t)); how many end on its right."""
+    normal = np.array([np.cos(t), -np.sin(t)])
+    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=dt, bounce=1.0),
+                      field=field)
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-0.9, 0.9, (3 * 4096, 2))
+    x = x[x @ normal < -0.05][:4096]
+    v = np.stack([np.full(len(x), speed), rng.uniform(-0.5, 0.5, len(x))], 1)
+    history = run_particles(ctx, scene, x, v, steps)
+    return max(int(np.count_nonzero(p @ normal > 0.02)) for p, _ in history)
+
+
+def mask_lines(ctx, image_size=1024, resolution=256):
+    """A PNG mask holding a vertical line one pixel wide, in an image 4x the field's resolution
+    (a quarter of a cell): the line must survive resampling and stop particles."""
+    import tempfile
+
+    from PIL import Image
+
+    pixels = np.full((image_size, image_size), 255, np.uint8)
+    pixels[:, image_size // 2 + 1] = 0  # dark: solid; off the cell grid
+    with tempfile.TemporaryDirectory() as folder:
+        path = f"{folder}/line.png"
+        Image.fromarray(pixels).save(path)
+        field = CollisionField(RECT, [], mask=path, resolution=(resolution, resolution))
+    crossed = _crossings(ctx, field, 2.0, 1 / 60, 60)
+    return Case(f"one-pixel line in a {image_size}^2 PNG mask, {resolution}^2 field: crossed of "
+                "4096", str(crossed), "0", crossed == 0)
+
+
+# Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
+NUMERICS = {
+    "dither at rest": dither_at_rest,
+    "one-cell walls": one_cell_walls,
+    "thin walls at angles": thin_walls_at_angles,
+    "mask lines": mask_lines,
+}

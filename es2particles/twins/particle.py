@@ -29,9 +29,16 @@ def respond(x, v, a, d, n, hit, p):
     return x, v
 
 
-def collide(x, v, a, field, p):
+def collide(x, v, a, field, p, before):
     d, n = field.sample(x)
-    x, v = respond(x, v, a, d.astype(np.float64), n, d < 0, p)
+    d = d.astype(np.float64)
+    moved = x - before
+    # Inside yet moving along the outward normal: it came through the other side of a thin wall
+    # (see collide() in lib/particle.glsl); leave by the side it came from.
+    back = (d < 0) & (np.sum(moved * n, axis=-1) > 0)
+    n = np.where(back[:, None], -n, n)
+    d = np.where(back, np.sum(moved * n, axis=-1), d)
+    x, v = respond(x, v, a, d, n, d < 0, p)
     x0, y0, x1, y1 = field.rect
     for axis, edge, sign in ((0, x0, 1.0), (0, x1, -1.0), (1, y0, 1.0), (1, y1, -1.0)):
         depth = sign * (x[:, axis] - edge)
@@ -56,7 +63,7 @@ def integrate(x, v, field, p):
         a = acceleration(x, p)
         v_new = v * decay[:, None] + a * gain[:, None]
         x_new = x + v_new * h[:, None]
-        x_new, v_new = collide(x_new, v_new, a, field, p)
+        x_new, v_new = collide(x_new, v_new, a, field, p, before=x)
         x, v = np.where(active, x_new, x), np.where(active, v_new, v)
     return x, v
 

@@ -65,12 +65,23 @@ void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n)
     }
 }
 
-void collide(inout vec2 x, inout vec2 v, vec2 a)
+void collide(inout vec2 x, inout vec2 v, vec2 a, vec2 before)
 {
     float d;
     vec2 n;
     field_sample(x, d, n);
     if (d < 0.0) {
+        // Inside, yet moved along the outward normal: no particle enters through the face a
+        // normal belongs to that way, so it came in through the other side of a thin wall, whose
+        // cell holds the far face's normal (the one on the medial axis, or a wall whose faces sit
+        // on cell centres). It leaves by the side it came from: the normal turned round, no deeper
+        // than the move's part along it, which puts it back level with where it was. Sub-steps of
+        // at most half a cell mean it cannot have come from further.
+        vec2 moved = x - before;
+        if (dot(moved, n) > 0.0) {
+            n = -n;
+            d = dot(moved, n);
+        }
         respond(x, v, a, d, n);
     }
     // Walls and floor, the edges of the scene rectangle: exact planes, so a corner holds no
@@ -107,9 +118,10 @@ void integrate(inout vec2 x, inout vec2 v)
             break;
         }
         vec2 a = acceleration(x);
+        vec2 before = x;
         v = v * decay + a * gain;
         x += v * h;
-        collide(x, v, a);
+        collide(x, v, a, before);
     }
 }
 #endif

@@ -324,10 +324,29 @@ def mask_lines(ctx, image_size=1024, resolution=256):
                 "4096", str(crossed), "0", crossed == 0)
 
 
+def substep_cap(ctx):
+    """"No tunnelling" where sub-steps of half a cell need more than the old cap of 256, against
+    a wall one cell thick: dt = 1 at speed 7.9, gravity 1e4 (towards the wall), a 2048-cell field
+    at speed 7.9. Crossed of 4096 in each."""
+    rows = []
+    for resolution, speed, dt, gravity in ((256, 7.9, 1.0, 0.0), (256, 2.0, 1 / 60, 1e4),
+                                           (2048, 7.9, 1 / 60, 0.0)):
+        cell = 2 / resolution
+        field = CollisionField(RECT, [Box((0.0, 0.0), (0.5 * cell, 1.0))],
+                               resolution=(resolution, resolution))
+        # gravity pulls towards the wall (+x), so it is what drives the particles through
+        rows.append(_crossings(ctx, field, speed, dt, 3 if dt == 1.0 else 30,
+                               gravity=(gravity, 0.0)))
+    return Case("beyond 256 sub-steps, one-cell wall: dt 1 at speed 7.9 / gravity 1e4 / 2048 "
+                "field at speed 7.9: crossed of 4096", " / ".join(map(str, rows)), "0",
+                max(rows) == 0)
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
     "one-cell walls": one_cell_walls,
     "thin walls at angles": thin_walls_at_angles,
     "mask lines": mask_lines,
+    "sub-step cap": substep_cap,
 }

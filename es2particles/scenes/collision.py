@@ -28,7 +28,9 @@ from ..twins.life import life_range, staggered_births
 from .base import Defaults, Scene
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
-MAX_SUBSTEPS = 256  # as in lib/particle.glsl
+# The most sub-steps a particle's step may take: a loop bound compiled into the shader (ES 1.00
+# loops need a constant one). A scene whose particles could need more is refused.
+SUBSTEP_LIMIT = 4096
 
 
 @dataclass(frozen=True)
@@ -68,6 +70,30 @@ class Physics:
         for name, value in (("gravity", self.gravity), ("emitter", self.emitter)):
             for v in value:
                 check_range(name, v, -1e4, 1e4)
+
+    def max_substeps(self, field):
+        """The most sub-steps of at most half a field cell that any particle can need in a step,
+        the shader's loop bound: a particle's speed is at most the velocity range's corner
+        (max_speed sqrt 2) plus what the acceleration adds in a step (gravity, and the spring's
+        pull from across the scene), and a spring's fixed count is at least this."""
+        x0, y0, x1, y1 = field.rect
+        pull = self.spring[2] * np.hypot(x1 - x0, y1 - y0)
+        accel = np.hypot(*self.gravity) + pull
+        reach = (self.max_speed * np.sqrt(2) + accel * self.dt) * self.dt
+        return int(max(1, np.ceil(reach / (0.5 * field.cell)), self.fixed_substeps(field)))
+
+    def check_substeps(self, field):
+        """Refuse parameters whose particles could move more than half a field cell in one
+        sub-step of the most the shader allows (SUBSTEP_LIMIT): "no tunnelling" holds or the
+        scene is not made."""
+        need = self.max_substeps(field)
+        if need > SUBSTEP_LIMIT:
+            raise ParameterError(
+                f"dt {self.dt:g} with gravity {np.hypot(*self.gravity):g}, max speed "
+                f"{self.max_speed:g} and field cells of {field.cell:.3g} needs up to {need} "
+                f"sub-steps of half a cell to rule out tunnelling; at most {SUBSTEP_LIMIT}: lower "
+                f"--dt or --gravity, or use a coarser --field-resolution")
+        return need
 
     def fixed_substeps(self, field):
         """0 (each particle picks its sub-step count from its speed), or one count for all.
@@ -119,6 +145,7 @@ class Collision(Scene):
             shapes, mask = parse_shape(shape, RECT)
             field = CollisionField(RECT, shapes, mask, field_resolution)
         self.field = field
+        self.max_substeps = physics.check_substeps(field)
         # Steady from the first frame: run one longest lifetime before it (see start). 2^17
         # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
         # a slow particle's sub-code moves are kept on average.
@@ -160,7 +187,8 @@ class Collision(Scene):
         motion = {**p.life_uniforms(), **p.motion_uniforms(self.field)}
         for name in ("velocity", "position"):
             g.add(name, "collision.frag", writes=name, reads=state, textures=["field"],
-                  uniforms=motion, defines={f"WRITE_{name.upper()}": None})
+                  uniforms=motion, defines={f"WRITE_{name.upper()}": None,
+                                            "MAX_SUBSTEPS": self.max_substeps})
         # The life pass only ages and respawns: no forces, no field.
         g.add("life", "collision.frag", writes="life", reads=state, uniforms=p.life_uniforms(),
               defines={"WRITE_LIFE": None})
@@ -181,7 +209,7 @@ class Collision(Scene):
         w, h = f.resolution
         lines = [f"collision field: {w}x{h} cells of {f.cell:.4g} (RGBA8: packed distance within "
                  f"+-{f.max_distance:g}, 8-bit normal), {w * h * 4} bytes; made once in numpy",
-                 f"physics: dt {p.dt:.4g}, sub-steps of at most half a cell (<= {MAX_SUBSTEPS}), "
+                 f"physics: dt {p.dt:.4g}, sub-steps of at most half a cell (<= {self.max_substeps}), "
                  f"gravity {p.gravity}, drag {p.drag:g} (exact), sliding {p.sliding:g}, "
                  f"bounce {p.bounce:g}"]
         if p.spring[2] == 0:

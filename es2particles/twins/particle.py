@@ -3,7 +3,6 @@ collision-scene particle, the independent reference of tests/test_collision.py a
 
 import numpy as np
 
-from ..scenes.collision import MAX_SUBSTEPS
 from .life import alive
 
 def acceleration(x, p):
@@ -53,7 +52,7 @@ def integrate(x, v, field, p):
     reach = (np.hypot(v[:, 0], v[:, 1]) + np.hypot(a0[:, 0], a0[:, 1]) * p.dt) * p.dt
     fixed = p.fixed_substeps(field)
     n = np.full(len(x), fixed) if fixed > 0 else np.ceil(reach / (0.5 * field.cell))
-    n = np.clip(n, 1, MAX_SUBSTEPS)
+    n = np.clip(n, 1, p.max_substeps(field))
     h = p.dt / n
     kh = p.drag * h
     decay = np.exp(-kh)

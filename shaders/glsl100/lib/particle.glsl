@@ -5,6 +5,8 @@
 #include "lib/state.glsl"
 #include "lib/life.glsl"
 
+// MAX_SUBSTEPS: the loop bound, the most sub-steps any particle of the scene can need (the
+// scene computes it from its parameters and refuses those that would need more than 4096).
 #ifndef MAX_SUBSTEPS
 #define MAX_SUBSTEPS 256
 #endif

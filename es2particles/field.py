@@ -197,6 +197,12 @@ def mask_sdf(solid, cell):
 
 # --- the field ---------------------------------------------------------------------------------
 
+def cell_size(rect, resolution):
+    """The side of a field cell (the larger one where cells are not square)."""
+    x0, y0, x1, y1 = rect
+    return max((x1 - x0) / resolution[0], (y1 - y0) / resolution[1])
+
+
 class CollisionField:
     """Distance and normal on a ``resolution`` grid of cells over ``rect`` (x0, y0, x1, y1).
 
@@ -219,7 +225,7 @@ class CollisionField:
         x0, y0, x1, y1 = self.rect
         w, h = (int(check_range("field resolution", r, 8, 4096, integer=True)) for r in resolution)
         self.resolution = (w, h)
-        self.cell = max((x1 - x0) / w, (y1 - y0) / h)
+        self.cell = cell_size(self.rect, (w, h))
         self.max_distance = check_range("max_distance", max_distance, self.cell, 1e3)
         for shape in shapes:
             lo, hi = shape.bounds()

@@ -17,7 +17,7 @@ def test_numerics_case(gl, name):
 def test_parameters_that_would_void_no_tunnelling_are_refused(capsys):
     from es2particles.cli import main
 
-    code = main(["run", "collision", "--dt", "1", "--gravity", "10000", "--out", "x.png"])
+    code = main(["run", "collision", "--dt", "1", "--field-resolution", "4096", "--out", "x.png"])
     message = capsys.readouterr().err
     assert code == 2 and "sub-steps of half a cell to rule out tunnelling; at most 4096" in message
     assert message.count("\n") == 1 and "Traceback" not in message

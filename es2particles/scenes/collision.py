@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ..field import CollisionField, parse_shape
+from ..field import CollisionField, cell_size, parse_shape
 from ..graph import PassGraph
 from ..twins.life import life_range, staggered_births
 from .base import Defaults, Scene
@@ -71,31 +71,28 @@ class Physics:
             for v in value:
                 check_range(name, v, -1e4, 1e4)
 
-    def max_substeps(self, field):
+    def max_substeps(self, cell):
         """The most sub-steps of at most half a field cell that any particle can need in a step,
-        the shader's loop bound: a particle's speed is at most the velocity range's corner
-        (max_speed sqrt 2) plus what the acceleration adds in a step (gravity, and the spring's
-        pull from across the scene), and a spring's fixed count is at least this."""
-        x0, y0, x1, y1 = field.rect
-        pull = self.spring[2] * np.hypot(x1 - x0, y1 - y0)
-        accel = np.hypot(*self.gravity) + pull
-        reach = (self.max_speed * np.sqrt(2) + accel * self.dt) * self.dt
-        return int(max(1, np.ceil(reach / (0.5 * field.cell)), self.fixed_substeps(field)))
+        the shader's loop bound. The velocity range is enforced at every sub-step (not only when
+        the velocity is stored), so no particle is faster than the range's corner, max_speed
+        sqrt 2, at any time; a spring's fixed count is at least this."""
+        reach = self.max_speed * np.sqrt(2) * self.dt
+        return int(max(1, np.ceil(reach / (0.5 * cell)), self.fixed_substeps(cell)))
 
-    def check_substeps(self, field):
+    def check_substeps(self, cell):
         """Refuse parameters whose particles could move more than half a field cell in one
         sub-step of the most the shader allows (SUBSTEP_LIMIT): "no tunnelling" holds or the
         scene is not made."""
-        need = self.max_substeps(field)
+        need = self.max_substeps(cell)
         if need > SUBSTEP_LIMIT:
             raise ParameterError(
-                f"dt {self.dt:g} with gravity {np.hypot(*self.gravity):g}, max speed "
-                f"{self.max_speed:g} and field cells of {field.cell:.3g} needs up to {need} "
-                f"sub-steps of half a cell to rule out tunnelling; at most {SUBSTEP_LIMIT}: lower "
-                f"--dt or --gravity, or use a coarser --field-resolution")
+                f"dt {self.dt:g} with max speed {self.max_speed:g} and field cells of "
+                f"{cell:.3g} needs up to {need} sub-steps of half a cell to rule out "
+                f"tunnelling; at most {SUBSTEP_LIMIT}: lower --dt or use a coarser "
+                f"--field-resolution")
         return need
 
-    def fixed_substeps(self, field):
+    def fixed_substeps(self, cell):
         """0 (each particle picks its sub-step count from its speed), or one count for all.
 
         With gravity alone, semi-implicit Euler loses g^2 h^2 / 2 of energy per sub-step whatever
@@ -108,7 +105,8 @@ class Physics:
         if self.spring[2] == 0:
             return 0.0
         omega = np.sqrt(self.spring[2])
-        return float(np.ceil(max(self.max_speed * self.dt / (0.5 * field.cell), 2 * omega * self.dt)))
+        return float(np.ceil(max(self.max_speed * np.sqrt(2) * self.dt / (0.5 * cell),
+                                 2 * omega * self.dt)))
 
     def life_uniforms(self):
         """Uniforms of the life cycle (age, respawn): every pass uses them."""
@@ -122,8 +120,9 @@ class Physics:
         """Uniforms of forces, integration and collision: the velocity and position passes."""
         x0, y0, x1, y1 = field.rect
         return {
-            "u_fixed_substeps": self.fixed_substeps(field),
+            "u_fixed_substeps": self.fixed_substeps(field.cell),
             "u_gravity": tuple(map(float, self.gravity)), "u_drag": float(self.drag),
+            "u_max_speed": float(self.max_speed),
             "u_spring": tuple(map(float, self.spring)), "u_sliding": float(self.sliding),
             "u_bounce": float(self.bounce), "u_cell": float(field.cell),
             "u_field_rect": (x0, y0, x1 - x0, y1 - y0),
@@ -142,10 +141,12 @@ class Collision(Scene):
     def __init__(self, shape="circle", physics=Physics(), field_resolution=(256, 256), field=None):
         self.physics = physics
         if field is None:
+            # Refuse what the sub-steps cannot honour before the (costly) field is made.
+            physics.check_substeps(cell_size(RECT, field_resolution))
             shapes, mask = parse_shape(shape, RECT)
             field = CollisionField(RECT, shapes, mask, field_resolution)
         self.field = field
-        self.max_substeps = physics.check_substeps(field)
+        self.max_substeps = physics.check_substeps(field.cell)
         # Steady from the first frame: run one longest lifetime before it (see start). 2^17
         # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
         # a slow particle's sub-code moves are kept on average.

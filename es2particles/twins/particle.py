@@ -50,9 +50,9 @@ def collide(x, v, a, field, p, before):
 def integrate(x, v, field, p):
     a0 = acceleration(x, p)
     reach = (np.hypot(v[:, 0], v[:, 1]) + np.hypot(a0[:, 0], a0[:, 1]) * p.dt) * p.dt
-    fixed = p.fixed_substeps(field)
+    fixed = p.fixed_substeps(field.cell)
     n = np.full(len(x), fixed) if fixed > 0 else np.ceil(reach / (0.5 * field.cell))
-    n = np.clip(n, 1, p.max_substeps(field))
+    n = np.clip(n, 1, p.max_substeps(field.cell))
     h = p.dt / n
     kh = p.drag * h
     decay = np.exp(-kh)
@@ -60,9 +60,10 @@ def integrate(x, v, field, p):
     for i in range(int(n.max()) if len(n) else 0):
         active = (i < n)[:, None]
         a = acceleration(x, p)
-        v_new = v * decay[:, None] + a * gain[:, None]
+        v_new = np.clip(v * decay[:, None] + a * gain[:, None], -p.max_speed, p.max_speed)
         x_new = x + v_new * h[:, None]
         x_new, v_new = collide(x_new, v_new, a, field, p, before=x)
+        v_new = np.clip(v_new, -p.max_speed, p.max_speed)
         x, v = np.where(active, x_new, x), np.where(active, v_new, v)
     return x, v
 

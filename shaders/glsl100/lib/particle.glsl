@@ -13,7 +13,8 @@
 
 // Its uniforms are declared by the graph from the scene's Physics (scenes/collision.py):
 //   u_dt, u_emit, u_emitter (position.xy, direction, spread), u_speed and u_lifetime (ranges),
-// and, for the passes that move particles (not WRITE_LIFE): u_gravity, u_drag (k of v' = -k v,
+// and, for the passes that move particles (not WRITE_LIFE): u_max_speed (the velocity range,
+// held at every sub-step), u_gravity, u_drag (k of v' = -k v,
 // integrated exactly), u_spring (centre.xy, omega^2), u_sliding (s: 1 bounces along the normal,
 // 0 slides), u_bounce (r: the speed kept on contact), u_cell (a sub-step moves at most half of
 // it), u_fixed_substeps (0: each particle picks its count), the field texture u_field (RG:
@@ -121,9 +122,12 @@ void integrate(inout vec2 x, inout vec2 v)
         }
         vec2 a = acceleration(x);
         vec2 before = x;
-        v = v * decay + a * gain;
+        // The velocity range holds at every sub-step, not only when the velocity is stored: no
+        // particle is then faster than its corner, which bounds the sub-steps any can need.
+        v = clamp(v * decay + a * gain, -u_max_speed, u_max_speed);
         x += v * h;
         collide(x, v, a, before);
+        v = clamp(v, -u_max_speed, u_max_speed);
     }
 }
 #endif

@@ -4,7 +4,7 @@ Built once, in numpy, from analytic shapes (circle, box, capsule, their union) o
 (a silhouette). The walls and floor (the scene rectangle's edges) are exact planes in the shader,
 not cells of the texture: a corner cell would hold one wall's normal and hide the other. Negative distance is inside an
 object. The texture holds, per cell, the distance as 16-bit packed fixed point (RG, over
-[-max_distance, max_distance]) and the unit normal as two 8-bit channels (BA, n * 0.5 + 0.5).
+[-max_distance, max_distance]) and the unit normal as two 8-bit channels (BA, 127 n + 127: 0 and +-1 exact).
 
 The normal is stored, not derived from the distance gradient in the shader: one NEAREST fetch then
 gives a particle both (the chapter's single texture access), where a gradient would take four more
@@ -253,14 +253,16 @@ class CollisionField:
             2 * self.max_distance)
         out = np.empty(self.distance.shape + (4,), np.uint8)
         out[..., 0:2] = packing.pack16(unit.astype(np.float32))
-        out[..., 2:4] = np.round((self.normal * 0.5 + 0.5) * 255).clip(0, 255).astype(np.uint8)
+        # Normal components over 254 steps around 127: 0 and +-1 are exact bytes (127, 127 +- 127),
+        # where (n/2 + 1/2) 255 put 0 at 127.5 and tilted every axis-aligned face by 0.0039.
+        out[..., 2:4] = (np.round(self.normal * 127) + 127).clip(0, 254).astype(np.uint8)
         return out
 
     def decoded(self):
         """(distance, normal) exactly as the shader decodes them from the texture."""
         t = self.texels()
         d = np.float32(-self.max_distance) + packing.unpack16(t[..., 0:2]) * np.float32(2 * self.max_distance)
-        n = t[..., 2:4].astype(np.float32) * np.float32(2 / 255) - np.float32(1)
+        n = (t[..., 2:4].astype(np.float32) - np.float32(127)) * np.float32(1 / 127)
         n = n / np.hypot(n[..., 0], n[..., 1])[..., None]  # as normalize() in the shader
         return d.astype(np.float32), n
 

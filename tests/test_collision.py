@@ -39,6 +39,7 @@ def download(sim):
     return sim.download("position"), sim.download("velocity"), sim.download("life")
 
 
+
 def test_short_horizon_steps_agree_with_float64(gl):
     physics = Physics(emit=False, drag=0.2)
     scene = Collision("circle+box", physics)

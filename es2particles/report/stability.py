@@ -342,6 +342,43 @@ def substep_cap(ctx):
                 max(rows) == 0)
 
 
+def symmetric_drop(ctx):
+    """Particles dropped straight down (at rest, gravity 3) onto a box top and onto the floor,
+    2 s: a head-on hit has no side to slide to, so none may move sideways. Max |x drift| per
+    format (rgba8 / rgba16f / rgba32f)."""
+    field = CollisionField(RECT, [Box((0.5, -0.5), (0.3, 0.2))], resolution=(256, 256))
+    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, -3.0)), field=field)
+    xs = np.linspace(-0.9, 0.75, 1024)
+    xs = xs[np.abs(np.abs(xs - 0.5) - 0.3) > 2 * field.cell]  # clear of the box's corners by 2 cells
+    n = len(xs)
+    x = np.stack([xs, np.full(n, 0.5)], 1)  # over the box and over the floor
+    # one storage step of a position below 1: a code of [-1, 1], a half / single float's ulp
+    steps = {"rgba8": 2 / 65024, "rgba16f": 2.0 ** -11, "rgba32f": 2.0 ** -23}
+    rows = []
+    for fmt, step in steps.items():
+        if not ctx.caps.renderable.get(fmt):
+            continue
+        last = run_particles(ctx, scene, x, np.zeros((n, 2)), 120, fmt=fmt, rounding="dither")[-1][0]
+        rows.append((fmt, float(np.abs(last[:, 0] - x[:, 0]).max()), step))
+    return Case("straight drop onto a box top and the floor, 2 s: max |sideways drift| per format",
+                " / ".join(f"{fmt} {drift:.2g}" for fmt, drift, _ in rows),
+                "one storage step: " + " / ".join(f"{step:.2g}" for _, _, step in rows),
+                all(drift <= step for _, drift, step in rows))
+
+
+def resting_creep(ctx):
+    """Particles resting on a box top: how far they creep between 1 s and 20 s (a tilted
+    normal, 8-bit normals that could not hold 0, made them slide)."""
+    field = CollisionField(RECT, [Box((0.0, -0.5), (0.5, 0.2))], resolution=(256, 256))
+    scene = Collision(physics=Physics(emit=False, drag=0.05, gravity=(0.0, -3.0)), field=field)
+    n = 512
+    x = np.stack([np.linspace(-0.4, 0.4, n), np.full(n, -0.25)], 1)
+    history = run_particles(ctx, scene, x, np.zeros((n, 2)), 1200, rounding="dither")
+    creep = float(np.abs(history[-1][0][:, 0] - history[59][0][:, 0]).max())
+    return Case("particles resting on a box top, 1 s to 20 s: max |creep|", f"{creep:.2g}",
+                "<= 1e-4", creep <= 1e-4)
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
@@ -349,4 +386,6 @@ NUMERICS = {
     "thin walls at angles": thin_walls_at_angles,
     "mask lines": mask_lines,
     "sub-step cap": substep_cap,
+    "symmetric drop": symmetric_drop,
+    "resting creep": resting_creep,
 }

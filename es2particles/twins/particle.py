@@ -16,10 +16,10 @@ def respond(x, v, a, d, n, hit, p):
     speed = np.hypot(v[:, 0], v[:, 1])
     along = v - vn[:, None] * n
     along_len = np.hypot(along[:, 0], along[:, 1])
-    turned = np.stack([-n[:, 1], n[:, 0]], -1)
     has_tangent = along_len > 1e-6 * speed
-    t = np.where(has_tangent[:, None], along / np.where(has_tangent, along_len, 1)[:, None], turned)
-    new_v = speed[:, None] * (n * p.sliding + t * (1 - p.sliding)) * p.bounce
+    t = along / np.where(has_tangent, along_len, 1)[:, None]
+    sliding = np.where(has_tangent, p.sliding, 1.0)[:, None]  # head-on: all along the normal
+    new_v = speed[:, None] * (n * sliding + t * (1 - sliding)) * p.bounce
     v = np.where(turn[:, None], new_v, v)
     x = np.where(hit[:, None], x - d[:, None] * n, x)
     v2 = np.sum(v * v, axis=-1)
@@ -62,7 +62,7 @@ def integrate(x, v, field, p):
         a = acceleration(x, p)
         v_new = np.clip(v * decay[:, None] + a * gain[:, None], -p.max_speed, p.max_speed)
         x_new = x + v_new * h[:, None]
-        x_new, v_new = collide(x_new, v_new, a, field, p, before=x)
+        x_new, v_new = collide(x_new, v_new, a, field, p, x)
         v_new = np.clip(v_new, -p.max_speed, p.max_speed)
         x, v = np.where(active, x_new, x), np.where(active, v_new, v)
     return x, v

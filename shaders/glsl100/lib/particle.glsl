@@ -18,7 +18,7 @@
 // integrated exactly), u_spring (centre.xy, omega^2), u_sliding (s: 1 bounces along the normal,
 // 0 slides), u_bounce (r: the speed kept on contact), u_cell (a sub-step moves at most half of
 // it), u_fixed_substeps (0: each particle picks its count), the field texture u_field (RG:
-// packed distance, BA: normal * 0.5 + 0.5), u_field_rect (x0, y0, width, height),
+// packed distance, BA: 127 normal + 127), u_field_rect (x0, y0, width, height),
 // u_field_cells and u_field_range (the distance's (lo, lo, span, span)).
 
 struct Particle {
@@ -34,7 +34,8 @@ void field_sample(vec2 p, out float d, out vec2 n)
                       vec2(0.0), u_field_cells - 1.0);
     vec4 t = texture2D(u_field, (cell + 0.5) / u_field_cells);
     // 8 bits per component leave |n| up to ~0.5% off 1, and the response scales the speed by it.
-    n = normalize(floor(t.zw * 255.0 + 0.5) * (2.0 / 255.0) - 1.0);
+    // Components over 254 steps around 127, so 0 and +-1 are exact (see CollisionField.texels).
+    n = normalize((floor(t.zw * 255.0 + 0.5) - 127.0) * (1.0 / 127.0));
     // The texel holds the distance at the cell's centre; carry it to the particle along the
     // normal (first order: exact for a flat surface). Without this a push-out could move a
     // particle up to half a cell too far, and a resting particle would gain energy.
@@ -51,13 +52,18 @@ void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n)
 {
     float vn = dot(v, n);
     if (vn < 0.0) {
-        // The chapter's response: v' = |v| (n s + t (1 - s)) r, t the tangent along the motion;
-        // if v is along n there is no such tangent: take the normal turned a quarter.
+        // The chapter's response: v' = |v| (n s + t (1 - s)) r, t the tangent along the motion.
+        // A head-on hit (v along n) has no direction to slide in: its whole speed goes back along
+        // the normal, v' = |v| r n. Symmetric: a straight drop bounces straight up, and a particle
+        // resting on a face stays where it is (a fixed or random turn made it slide or wander).
         float speed = length(v);
         vec2 along = v - vn * n;
         float along_length = length(along);
-        vec2 t = (along_length > 1e-6 * speed) ? along / along_length : vec2(-n.y, n.x);
-        v = speed * (n * u_sliding + t * (1.0 - u_sliding)) * u_bounce;
+        if (along_length > 1e-6 * speed) {
+            v = speed * (n * u_sliding + along / along_length * (1.0 - u_sliding)) * u_bounce;
+        } else {
+            v = speed * n * u_bounce;
+        }
     }
     // Out of the object along the normal by the penetration depth. The work of the acceleration
     // over that move is taken from the kinetic energy, so a push-out never adds energy.

@@ -97,7 +97,7 @@ def _ranges(out, quantity):
 
 
 def _reader(out, quantity, fmt, this_step):
-    q, c = quantity.name, quantity.components
+    q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
     ret = GLSL_TYPES[c]
     samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
@@ -117,7 +117,7 @@ def _reader(out, quantity, fmt, this_step):
 
 
 def _writer(out, quantity, fmt, part):
-    q, c = quantity.name, quantity.components
+    q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
     padded = "value" if c == 4 else f"vec4(value{', 0.0' * (4 - c)})"
     if fmt == "rgba8":

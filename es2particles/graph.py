@@ -127,8 +127,9 @@ class Plan:
             count = f"{n}" if parts == 1 else f"{parts} parts x {n}"
             size = ""
             if texel_count is not None:
-                size = f", {_bytes(n * parts * texel_count * bytes_per_texel(fmt))}"
-            lines.append(f"  {name} ({q.components} components): {count} ({why}{size})")
+                size = f", {_bytes(n * parts * texel_count * bytes_per_texel(q.format_in(fmt)))}"
+            pinned = f", always {q.storage}" if q.storage else ""
+            lines.append(f"  {name} ({q.components} components{pinned}): {count} ({why}{size})")
         for name, data in self.textures.items():
             lines.append(f"  scene texture {name}: {data.shape[1]}x{data.shape[0]} {data.dtype}, "
                          f"{_bytes(data.nbytes)}")
@@ -157,12 +158,13 @@ class PassGraph:
         self.passes = []
         self.textures = {}
 
-    def quantity(self, name, lo, hi, components=None):
+    def quantity(self, name, lo, hi, components=None, storage=None):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
-        per component; ``components`` defaults to their length, else 2); returns it."""
+        per component; ``components`` defaults to their length, else 2); ``storage`` pins its
+        format (see :class:`~es2particles.state.Quantity`); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
-        self.quantities[name] = Quantity(name, lo, hi, components)
+        self.quantities[name] = Quantity(name, lo, hi, components, storage)
         return self.quantities[name]
 
     def texture(self, name, data):

@@ -14,7 +14,6 @@ from .context import bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
 from .graph import _bytes
 from .shaders import expand
-from .simulation import FORMAT_DEFINES
 
 # Accumulation formats in order of preference: float ones do not saturate, and one channel is a
 # quarter of the bytes to blend (r32f: 185 -> 156 ms for 2^20 points on llvmpipe).
@@ -95,7 +94,7 @@ class PointRenderer:
         self.format, self.format_note = choose_accumulation(ctx)
         # An 8-bit target saturates at 1: count in steps of 1/255 there, and say so in `scale`.
         self.scale = 1.0 if self.format != "rgba8" else 1.0 / 255.0
-        defines = dict(FORMAT_DEFINES[state_format])
+        defines = {}
         if "life" in quantities:
             defines["AGE_FADE"] = None
         uniforms = {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": self.point_size}

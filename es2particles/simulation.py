@@ -12,8 +12,7 @@ from .command import FullscreenCommand
 from .errors import ParameterError, ShaderError
 from .state import Layout, StateBuffer
 
-FORMAT_DEFINES = {"rgba8": {"STATE_RGBA8": None}, "rgba16f": {"STATE_FLOAT": None},
-                  "rgba32f": {"STATE_FLOAT": None}}
+FORMATS = ("rgba8", "rgba16f", "rgba32f")
 ROUNDINGS = ("nearest", "dither")
 AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
 
@@ -25,8 +24,8 @@ def resolve_format(ctx, fmt):
         for candidate in AUTO_ORDER:
             if ctx.caps.renderable.get(candidate):
                 return candidate, f"{candidate} (auto: the most precise renderable format)"
-    if fmt not in FORMAT_DEFINES:
-        raise ParameterError(f"format must be one of {sorted(FORMAT_DEFINES)} or 'auto', got {fmt!r}")
+    if fmt not in FORMATS:
+        raise ParameterError(f"format must be one of {sorted(FORMATS)} or 'auto', got {fmt!r}")
     ctx.require_format(fmt)
     return fmt, fmt
 
@@ -123,15 +122,16 @@ class Simulation:
         self.buffers, self.draws, self.textures = {}, [], {}
         try:
             for name, n in self.plan.buffers.items():
-                self.buffers[name] = StateBuffer(self.group, self.plan.quantities[name],
-                                                 self.layout, self.fmt, n)
+                quantity = self.plan.quantities[name]
+                if quantity.storage:
+                    ctx.require_format(quantity.storage)
+                self.buffers[name] = StateBuffer(self.group, quantity, self.layout,
+                                                 quantity.format_in(self.fmt), n)
             for name, data in self.plan.textures.items():
                 h, w = data.shape[:2]
                 fmt = "rgba8" if data.dtype == np.uint8 else "rgba32f"
                 self.textures[name] = self.group.texture((w, h), fmt, data=data.tobytes())
-            defines = dict(FORMAT_DEFINES[self.fmt])
-            if rounding == "dither" and self.fmt == "rgba8":
-                defines["STATE_DITHER"] = None
+            defines = {"STATE_DITHER": None} if rounding == "dither" else {}
             for spec, part, _ in self.plan.draws(self.fmt):
                 self.draws.append(_Draw(self.group, spec, part, graph.quantities, self.buffers,
                                         self.fmt, {**defines, **spec.defines}, self.layout,

@@ -27,13 +27,16 @@ class Quantity:
     """A named per-particle quantity of 1 to 4 components with a world range [lo, hi] each.
 
     ``lo`` and ``hi`` are numbers (the same for every component) or sequences of one number per
-    component; ``components`` defaults to their length, or 2 where both are numbers.
+    component; ``components`` defaults to their length, or 2 where both are numbers. ``storage``
+    pins the quantity to one format in every simulation (a step counter that must stay exact in
+    16-bit codes, say); by default it takes the simulation's.
     """
 
     name: str
     lo: tuple
     hi: tuple
     components: int = None
+    storage: str = None  # a format this quantity keeps whatever the simulation's (None: that)
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -56,6 +59,13 @@ class Quantity:
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
         object.__setattr__(self, "components", components)
+        if self.storage is not None and self.storage not in FORMATS:
+            raise ParameterError(f"quantity {self.name!r}: storage must be one of {list(FORMATS)} "
+                                 f"or None, got {self.storage!r}")
+
+    def format_in(self, fmt):
+        """The format this quantity is stored in within a simulation of format ``fmt``."""
+        return self.storage or fmt
 
     @property
     def lo32(self):
@@ -76,17 +86,17 @@ class Quantity:
                 f"u_{self.name}_span": tuple(map(float, span))}
 
     def parts(self, fmt):
-        """Textures the quantity spans in ``fmt``."""
-        return packing.parts(self.components, fmt)
+        """Textures the quantity spans in a simulation of format ``fmt``."""
+        return packing.parts(self.components, self.format_in(fmt))
 
     def part_axes(self, fmt, part):
         """The component names (``xy``, ``z``, ...) that part ``part`` holds in ``fmt``."""
-        if fmt != "rgba8":
+        if self.format_in(fmt) != "rgba8":
             return AXES[: self.components]
         return AXES[2 * part: min(2 * part + 2, self.components)]
 
     def bytes_per_particle(self, fmt):
-        return self.parts(fmt) * bytes_per_texel(fmt)
+        return self.parts(fmt) * bytes_per_texel(self.format_in(fmt))
 
 
 def _per_component(name, value, components):
@@ -217,6 +227,9 @@ class StateBuffer:
         of ``upload`` and ``fill_uniform``, or raw ones (how the stability suite injects NaN and
         Inf into float state). Spare texels get zeros."""
         texels = np.asarray(texels).reshape(self.layout.count, self.parts, 4)
+        if self.fmt == "rgba8" and (texels.dtype != np.uint8):
+            raise ParameterError(f"{self.quantity.name} is stored in rgba8: texels must be uint8 "
+                                 f"bytes, got {texels.dtype}")
         full = np.zeros((self.layout.width * self.layout.height, 4), dtype=numpy_dtype(self.fmt))
         for part, texture in enumerate(self.fronts):
             full[: self.layout.count] = texels[:, part]

@@ -62,15 +62,15 @@ def programs():
     from es2particles.field import CollisionField
     from es2particles.scenes import Clifford, Collision, DeJong
     from es2particles.scenes.collision import RECT
-    from es2particles.simulation import FORMAT_DEFINES
+    from es2particles.simulation import FORMATS
 
     graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
               "clifford": Clifford().graph(), "wide": wide_graph(),
               "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph()}
     out = []
-    for fmt, base in FORMAT_DEFINES.items():
-        for rounding in (["nearest", "dither"] if fmt == "rgba8" else ["nearest"]):
-            defines = dict(base, **({"STATE_DITHER": None} if rounding == "dither" else {}))
+    for fmt in FORMATS:
+        for rounding in ("nearest", "dither"):
+            defines = {"STATE_DITHER": None} if rounding == "dither" else {}
             for name, graph in graphs.items():
                 for spec, part, _ in graph.plan().draws(fmt):
                     prelude = pass_interface(spec, graph.quantities, fmt, part).lines
@@ -81,8 +81,7 @@ def programs():
             prelude = stage_interface(reads, quantities, fmt,
                                       {"u_view": (0, 0, 1, 1), "u_point_size": 1.0}).lines
             fade = {"AGE_FADE": None} if "life" in reads else {}
-            out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", {**base, **fade},
-                        prelude))
+            out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", fade, prelude))
     return out
 
 

@@ -79,7 +79,8 @@ def test_injected_nan_and_inf_are_contained(gl, fmt):
         sim.run(30)
         clean = {q: sim.download(q) for q in ("position", "velocity", "life")}
         bad = np.array([3, 100, 511])
-        for name, value in (("position", np.nan), ("velocity", np.inf), ("life", -np.inf)):
+        # life is always RGBA8 (the exact clock): only the float-stored quantities can hold these
+        for name, value in (("position", np.nan), ("velocity", np.inf)):
             texels = sim.buffers[name].read_texels().astype(np.float32).copy()
             texels[bad, :2] = value
             sim.buffers[name].write_texels(texels)

@@ -121,7 +121,8 @@ def non_finite(ctx, fmt):
     with Simulation(ctx, scene.graph(), 1024, fmt=fmt) as sim:
         scene.initialise(sim, np.random.default_rng(1))
         sim.run(30)
-        for name, value in (("position", np.nan), ("velocity", np.inf), ("life", -np.inf)):
+        # life is always RGBA8 (the exact clock): only the float-stored quantities can hold these
+        for name, value in (("position", np.nan), ("velocity", np.inf)):
             texels = sim.buffers[name].read_texels().astype(np.float32).copy()
             texels[[3, 100, 511], :2] = value
             sim.buffers[name].write_texels(texels)
@@ -379,6 +380,34 @@ def resting_creep(ctx):
                 "<= 1e-4", creep <= 1e-4)
 
 
+def clocks(ctx):
+    """The life clock's rate: particles living a long lifetime run K steps; their age must be
+    K dt (relative error). dt 1/60 for 40 s (half floats once stalled at 32 s), dt 1e-4 (nearest
+    rounding once froze the clock) and dt 1e-6 (float32 once ran 1.9x fast), in each format,
+    with nearest and dithered rounding."""
+    rows = []
+    for dt, steps in ((1 / 60, 2400), (1e-4, 500), (1e-6, 500)):
+        scene = free_scene(dt=dt, lifetime=(10 * dt, 10 * dt))  # emission is off
+        for fmt in ("rgba8", "rgba16f", "rgba32f"):
+            if not ctx.caps.renderable.get(fmt):
+                continue
+            for rounding in ("nearest", "dither"):
+                n = 64
+                with Simulation(ctx, scene.graph(), n, fmt=fmt, rounding=rounding) as sim:
+                    scene.initialise(sim, np.random.default_rng(0))
+                    sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.physics.max_age)], 1))
+                    sim.run(steps)
+                    age = sim.download("life")[:, 0]
+                rows.append((dt, fmt, rounding, float(np.abs(age / (steps * dt) - 1).max())))
+    worst = max(r[-1] for r in rows)
+    by_dt = {}
+    for dt, _, _, error in rows:
+        by_dt[dt] = max(by_dt.get(dt, 0.0), error)
+    return Case("life clock rate, every format and rounding: max |age / (K dt) - 1| at dt 1/60 "
+                "(40 s) / 1e-4 / 1e-6", " / ".join(f"{e:.1g}" for e in by_dt.values()),
+                "<= 1e-5", worst <= 1e-5)
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
@@ -388,4 +417,5 @@ NUMERICS = {
     "sub-step cap": substep_cap,
     "symmetric drop": symmetric_drop,
     "resting creep": resting_creep,
+    "clocks": clocks,
 }

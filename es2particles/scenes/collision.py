@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ParameterError, check_range
 from ..field import CollisionField, cell_size, parse_shape
 from ..graph import PassGraph
-from ..twins.life import life_range, staggered_births
+from ..twins.life import LIFE_STEPS, life_range, longest_life, staggered_births
 from .base import Defaults, Scene
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
@@ -50,7 +50,6 @@ class Physics:
     speed: tuple = (2.6, 3.2)
     lifetime: tuple = (3.0, 5.0)
     max_speed: float = 8.0  # velocity range is [-max_speed, max_speed]
-    max_age: float = 16.0  # life range: age in [-max_age, max_age], lifetime in [0, max_age]
 
     def __post_init__(self):
         check_range("dt", self.dt, 1e-6, 1.0)
@@ -60,16 +59,27 @@ class Physics:
         check_range("bounce", self.bounce, 0, 2)
         check_range("spread", self.spread, 0, 2 * np.pi)
         check_range("max_speed", self.max_speed, 1e-3, 1e4)
-        check_range("max_age", self.max_age, 1e-3, 1e6)
         lo, hi = (check_range("speed", v, 0, self.max_speed) for v in self.speed)
         if hi < lo:
             raise ParameterError(f"speed range must have min <= max, got {self.speed}")
-        lo, hi = (check_range("lifetime", v, 1e-3, self.max_age) for v in self.lifetime)
+        longest = longest_life(self.dt)
+        if self.lifetime[1] > longest:
+            raise ParameterError(
+                f"lifetime up to {self.lifetime[1]:g} s is {self.lifetime[1] / self.dt:.0f} steps "
+                f"of dt {self.dt:g}; the life clock counts whole steps in 16 bits, at most "
+                f"{LIFE_STEPS} ({longest:.4g} s at this dt): shorten --lifetime or raise --dt")
+        lo, hi = (check_range("lifetime", v, self.dt, longest) for v in self.lifetime)
         if hi < lo:
             raise ParameterError(f"lifetime range must have min <= max, got {self.lifetime}")
         for name, value in (("gravity", self.gravity), ("emitter", self.emitter)):
             for v in value:
                 check_range(name, v, -1e4, 1e4)
+
+    @property
+    def max_age(self):
+        """The longest age the life clock holds (LIFE_STEPS steps): a particle given this
+        lifetime lives as long as a run can tell."""
+        return longest_life(self.dt)
 
     def max_substeps(self, cell):
         """The most sub-steps of at most half a field cell that any particle can need in a step,
@@ -182,7 +192,7 @@ class Collision(Scene):
         g = PassGraph()
         g.quantity("position", RECT[:2], RECT[2:])
         g.quantity("velocity", -p.max_speed, p.max_speed)
-        g.quantity("life", *life_range(p.max_age))
+        g.quantity("life", *life_range(p.dt), storage="rgba8")
         g.texture("field", self.field.texels())
         state = ("position", "velocity", "life")
         motion = {**p.life_uniforms(), **p.motion_uniforms(self.field)}

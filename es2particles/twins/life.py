@@ -1,17 +1,32 @@
 """One particle life cycle, shared by the scenes that emit particles: the numpy twin of
-``lib/life.glsl`` and the staggered start that goes with it.
+``lib/life.glsl``, the life quantity's range, and the staggered start that goes with it.
 
-A particle's life is (age, lifetime): age < 0 is not yet born, 0 <= age < lifetime alive, older
-dead. Each step ages it by dt; one that is born or dies during the step is emitted, with
-randomness from ``life_random`` (a hash of its texel and the step number).
+A particle's life is (age, lifetime) in seconds: age < 0 is not yet born, 0 <= age < lifetime
+alive, older dead. Each step ages it by dt; one that is born or dies during the step is emitted,
+with randomness from ``life_random`` (a hash of its texel and the step number).
+
+The clock is exact: the life quantity is kept in RGBA8 whatever the simulation's format, over a
+range where one step is exactly one code (a span of 65024 dt), so ``age + dt`` lands on the next
+code under nearest and dithered rounding alike, at any dt. Accumulated in the state's own format,
+age froze below half a code (dt <= 1e-4 at the old range), ran 0.4% fast at the defaults, stalled
+at 32 s in half floats and ran 1.9x fast at dt = 1e-6 in float32. The price: ages and lifetimes
+are whole steps, and a lifetime may be at most LIFE_STEPS steps.
 """
 
 import numpy as np
 
+LIFE_STEPS = 32512  # half the 16-bit grid: ages run from -LIFE_STEPS to +LIFE_STEPS steps
 
-def life_range(max_age):
-    """(lo, hi) of the ``life`` quantity: age in [-max_age, max_age], lifetime in [0, max_age]."""
-    return (-max_age, 0.0), (max_age, max_age)
+
+def life_range(dt):
+    """(lo, hi) of the ``life`` quantity at time step ``dt``: age in +-LIFE_STEPS steps, lifetime
+    in [0, 2 LIFE_STEPS] steps; one code is one step on both."""
+    return (-LIFE_STEPS * dt, 0.0), (LIFE_STEPS * dt, 2 * LIFE_STEPS * dt)
+
+
+def longest_life(dt):
+    """The longest lifetime (and birth delay) the clock holds at time step ``dt``, in seconds."""
+    return LIFE_STEPS * dt
 
 
 def staggered_births(count, lifetime, rng):
@@ -30,11 +45,12 @@ def alive(life):
     return (life[..., 0] >= 0) & (life[..., 0] < life[..., 1])
 
 
-def emits(life, aged):
-    """``life_emits``: born or dead during the step that aged ``life`` to ``aged``."""
-    life, aged = np.asarray(life), np.asarray(aged)
-    born = (life[..., 0] < 0) & (aged[..., 0] >= 0)
-    ended = (life[..., 0] < life[..., 1]) & (aged[..., 0] >= life[..., 1])
+def emits(life, aged, dt):
+    """``life_emits``: born or dead during the step of length ``dt`` that aged ``life`` to
+    ``aged`` (each test half a step from the grid of whole steps)."""
+    life, aged, half = np.asarray(life), np.asarray(aged), 0.5 * dt
+    born = (life[..., 0] < -half) & (aged[..., 0] > -half)
+    ended = (life[..., 0] < life[..., 1] - half) & (aged[..., 0] > life[..., 1] - half)
     return born | ended
 
 

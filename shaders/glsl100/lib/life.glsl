@@ -1,6 +1,8 @@
 // One particle life cycle, shared by the scenes that emit particles. A particle's life is the
 // 2-component quantity (age, lifetime): age < 0 is not yet born (births are staggered at the
-// start), 0 <= age < lifetime is alive, age >= lifetime is dead. Each step ages it by dt; a
+// start), 0 <= age < lifetime is alive, age >= lifetime is dead. It is kept in RGBA8 over a range
+// where one step is one code, so the clock is exact (es2particles/twins/life.py). Each step ages
+// it by dt; a
 // particle that is born or dies during the step is (re-)emitted, with randomness from a hash of
 // its texel and the step number, computed alike in every pass of the scene, so passes that
 // write different quantities agree without extra state. numpy twin: es2particles/life.py.
@@ -18,12 +20,15 @@ vec4 life_random(vec2 uv)
     return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0)));
 }
 
-// True where a particle of last step's ``life`` is born or dies during a step that ages it to
-// ``aged``: such a particle is emitted now.
-bool life_emits(vec2 life, vec2 aged)
+// True where a particle of last step's ``life`` is born or dies during the step of length dt
+// that ages it to ``aged``: such a particle is emitted now. Ages and lifetimes are whole steps,
+// so each test sits half a step from the grid: float32 decodes of one step count can differ in
+// the last bit, and an exact comparison then skipped an emission for good.
+bool life_emits(vec2 life, vec2 aged, float dt)
 {
-    bool born = life.x < 0.0 && aged.x >= 0.0;
-    bool ended = life.x < life.y && aged.x >= life.y;
+    float half_step = 0.5 * dt;
+    bool born = life.x < -half_step && aged.x > -half_step;
+    bool ended = life.x < life.y - half_step && aged.x > life.y - half_step;
     return born || ended;
 }
 

@@ -143,13 +143,14 @@ Particle spawn(vec2 uv)
     vec4 r = life_random(uv);
     float angle = u_emitter.z + (r.x - 0.5) * u_emitter.w;
     vec2 direction = vec2(cos(angle), sin(angle));
-    // Born at a random moment within the step, so a stream leaves the emitter smoothly rather
-    // than in one bunch per step.
+    // Placed as if born at a random moment within the step, so a stream leaves the emitter
+    // smoothly rather than in one bunch per step; its age starts at 0 (the life clock counts
+    // whole steps: see lib/life.glsl).
     float since = r.w * u_dt;
     Particle p;
     p.v = direction * mix(u_speed.x, u_speed.y, r.y);
     p.x = u_emitter.xy + p.v * since;
-    p.life = vec2(since, mix(u_lifetime.x, u_lifetime.y, r.z));
+    p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, r.z));
     return p;
 }
 
@@ -178,7 +179,7 @@ Particle particle_step(vec2 x, vec2 v, vec2 life, vec2 uv)
     p.x = x;
     p.v = v;
     p.life = vec2(life.x + u_dt, life.y);
-    if (life_emits(life, p.life) && u_emit > 0.5) {
+    if (life_emits(life, p.life, u_dt) && u_emit > 0.5) {
         return spawn(uv);
     }
     if (life_alive(life)) {

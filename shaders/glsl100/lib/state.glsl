@@ -5,19 +5,15 @@
 // write_<q>(value), built on the functions below (es2particles/bindings.py writes them).
 // numpy twins: es2particles/packing.py.
 //
-// The format is chosen by a define that the simulation injects:
-//   STATE_RGBA8  (default) 16-bit fixed point over [lo, hi], two values packed in one RGBA8 texel;
-//   STATE_FLOAT  RGBA16F/RGBA32F: the value itself, clamped into [lo, hi], up to four per texel.
+// Each quantity's format decides which functions its accessors use: RGBA8 is 16-bit fixed point
+// over [lo, hi], two values packed in one texel (state_decode, state_encode); RGBA16F/RGBA32F
+// hold the value itself, clamped into [lo, hi], up to four per texel (state_clamp).
 // STATE_DITHER makes the packed format round stochastically, with noise from a hash of the texel
 // written (gl_FragCoord) and the step number: deterministic, different per particle and step.
 #include "lib/pack.glsl"
 #include "lib/hash.glsl"
 
 uniform float u_step;  // the step being computed (set by the simulation)
-
-#if !defined(STATE_FLOAT) && !defined(STATE_RGBA8)
-#define STATE_RGBA8
-#endif
 
 vec2 state_unit(vec2 value, vec2 lo, vec2 span)
 {

@@ -218,6 +218,7 @@ class CollisionField:
         Cells along x and y.
     max_distance : float
         Distances are clamped to +-max_distance (the packed range); far cells only need "far".
+        It grows to the deepest interior point where an object is deeper.
     """
 
     def __init__(self, rect, shapes=(), mask=None, resolution=(256, 256), max_distance=0.25):
@@ -243,6 +244,13 @@ class CollisionField:
         self.shapes = tuple(shapes)
         self.distance, self.normal = union(parts)
         self.solid = self.distance < 0
+        # Inside, every depth must be held, not clamped: a particle placed deep (by an emitter
+        # inside an object, say) is pushed out by the depth its cell reads. Outside, far cells
+        # only need "far", so the packed range grows to the deepest interior point only.
+        deepest = float(-self.distance.min()) + self.cell
+        if deepest > self.max_distance:
+            self.max_distance = deepest
+            self.distance = np.minimum(self.distance, self.max_distance)
         # The packed distance's range as the shader decodes it: (lo, lo, span, span).
         self.range = (-self.max_distance, -self.max_distance, 2 * self.max_distance,
                       2 * self.max_distance)

@@ -8,7 +8,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..field import Box, Capsule, CollisionField
+from ..field import Box, Capsule, Circle, CollisionField
 from ..graph import PassGraph
 from ..scenes.collision import RECT, Collision, Physics
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
@@ -269,13 +269,13 @@ def one_cell_walls(ctx, resolution=256):
     its faces at cell centres. Speed 2, dt 1/60, 60 steps."""
     cell = 2 / resolution
     rows = []
-    for offset in (0.0, 0.25, 0.5, 0.75):
-        field = CollisionField(RECT, [Box((offset * cell, 0.0), (0.5 * cell, 1.0))],
-                               resolution=(resolution, resolution))
-        rows.append((offset, _crossings(ctx, field, 2.0, 1 / 60, 60)))
-    worst = max(c for _, c in rows)
-    return Case("one-cell wall at offsets 0, 1/4, 1/2, 3/4 cell (speed 2, dt 1/60): crossed of "
-                "4096", " / ".join(str(c) for _, c in rows), "0", worst == 0)
+    for thickness in (1, 2):
+        for offset in (0.0, 0.25, 0.5, 0.75):
+            field = CollisionField(RECT, [Box((offset * cell, 0.0), (0.5 * thickness * cell, 1.0))],
+                                   resolution=(resolution, resolution))
+            rows.append(_crossings(ctx, field, 2.0, 1 / 60, 60))
+    return Case("walls 1 and 2 cells thick at offsets 0, 1/4, 1/2, 3/4 cell (speed 2, dt 1/60): "
+                "crossed of 4096", " / ".join(map(str, rows)), "0", max(rows) == 0)
 
 
 def thin_walls_at_angles(ctx, resolution=256):
@@ -408,6 +408,26 @@ def clocks(ctx):
                 "<= 1e-5", worst <= 1e-5)
 
 
+def covered_emitter(ctx):
+    """An emitter inside an object (a circle of radius 0.3 around it): a new particle must be
+    outside the object after the step that emits it. Max depth of live particles over 60 steps,
+    in field cells (the field can place a surface to within a cell)."""
+    physics = Physics(emitter=(0.0, -0.5), lifetime=(0.5, 1.0))
+    field = CollisionField(RECT, [Circle((0.0, -0.5), 0.3)], resolution=(256, 256))
+    scene = Collision(physics=physics, field=field)
+    deepest = 0.0
+    with Simulation(ctx, scene.graph(), 4096) as sim:
+        scene.initialise(sim, np.random.default_rng(2))
+        for _ in range(60):
+            sim.step()
+            x, life = sim.download("position"), sim.download("life")
+            live = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+            deepest = max(deepest, float(-field.exact_distance(x[live]).min()))
+    cells = deepest / field.cell
+    return Case("emitter inside a circle: deepest live particle after a step", f"{cells:.2f} cells",
+                "<= 1 cell", cells <= 1.0)
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
@@ -418,4 +438,5 @@ NUMERICS = {
     "symmetric drop": symmetric_drop,
     "resting creep": resting_creep,
     "clocks": clocks,
+    "covered emitter": covered_emitter,
 }

@@ -34,7 +34,8 @@ def collide(x, v, a, field, p, before):
     moved = x - before
     # Inside yet moving along the outward normal: it came through the other side of a thin wall
     # (see collide() in lib/particle.glsl); leave by the side it came from.
-    back = (d < 0) & (np.sum(moved * n, axis=-1) > 0)
+    # ... within two cells of the surface: deeper, it is inside a thick object
+    back = (d < 0) & (np.sum(moved * n, axis=-1) > 0) & (d > -2 * field.cell)
     n = np.where(back[:, None], -n, n)
     d = np.where(back, np.sum(moved * n, axis=-1), d)
     x, v = respond(x, v, a, d, n, d < 0, p)

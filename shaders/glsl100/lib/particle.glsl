@@ -85,9 +85,11 @@ void collide(inout vec2 x, inout vec2 v, vec2 a, vec2 before)
         // cell holds the far face's normal (the one on the medial axis, or a wall whose faces sit
         // on cell centres). It leaves by the side it came from: the normal turned round, no deeper
         // than the move's part along it, which puts it back level with where it was. Sub-steps of
-        // at most half a cell mean it cannot have come from further.
+        // at most half a cell mean it cannot have come from further. Only a wall up to two cells
+        // thick has such cells: a particle deeper than that is inside a thick object (an emitter
+        // there, say), and is pushed out by its depth whichever way it moves.
         vec2 moved = x - before;
-        if (dot(moved, n) > 0.0) {
+        if (dot(moved, n) > 0.0 && d > -2.0 * u_cell) {
             n = -n;
             d = dot(moved, n);
         }
@@ -151,6 +153,11 @@ Particle spawn(vec2 uv)
     p.v = direction * mix(u_speed.x, u_speed.y, r.y);
     p.x = u_emitter.xy + p.v * since;
     p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, r.z));
+#ifndef WRITE_LIFE
+    // An emitter inside an object: the new particle leaves it at once, as a sub-step's collision
+    // would move it out (it has not moved yet, so it is judged where it stands).
+    collide(p.x, p.v, acceleration(p.x), p.x);
+#endif
     return p;
 }
 

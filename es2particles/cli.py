@@ -5,6 +5,7 @@ exit status 2, not as a traceback.
 """
 
 import argparse
+import re
 import sys
 
 from .errors import Es2ParticlesError
@@ -22,12 +23,31 @@ def main(argv=None):
                         help="a small sweep (about a minute without a GPU)")
     report.add_argument("--out", default="out/report", help="folder for REPORT.md and charts")
     report.set_defaults(handler=_report)
-    args = parser.parse_args(argv)
+    args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
     try:
         return args.handler(args) or 0
     except Es2ParticlesError as error:
         print(f"es2particles: error: {error}", file=sys.stderr)
         return 2
+
+
+# A value that starts with '-' and looks like a number (-inf, -nan, -1e3, -5x5) but not like one
+# to argparse (which knows only -12 and -1.5): it would take it for an option and fail with
+# "expected one argument" instead of checking the value.
+_NEGATIVE_VALUE = re.compile(r"^-(inf|infinity|nan|\d|\.\d)", re.IGNORECASE)
+_ARGPARSE_NUMBER = re.compile(r"^-\d+$|^-\d*\.\d+$")
+
+
+def _join_negative_values(argv):
+    """``--option -value`` as ``--option=-value`` where the value looks like a number."""
+    out = []
+    for token in argv:
+        if (out and out[-1].startswith("--") and "=" not in out[-1]
+                and _NEGATIVE_VALUE.match(token) and not _ARGPARSE_NUMBER.match(token)):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
 
 
 def _info(args):

@@ -51,8 +51,9 @@ class Quantity:
             if not hi[axis] > lo[axis]:
                 raise ParameterError(f"quantity {self.name!r}: hi must be greater than lo on each "
                                      f"component, got lo={lo} hi={hi}")
-            span = np.float32(hi[axis]) - np.float32(lo[axis])
-            if not np.isfinite(span) or not np.isfinite(np.float32(lo[axis])):
+            with np.errstate(over="ignore"):  # an overflow is what is being checked for
+                lo32, span = np.float32(lo[axis]), np.float32(hi[axis]) - np.float32(lo[axis])
+            if not (np.isfinite(span) and np.isfinite(lo32)):
                 raise ParameterError(f"quantity {self.name!r}: the range [{lo[axis]:g}, "
                                      f"{hi[axis]:g}] overflows float32; each bound and the span "
                                      "must be within +-3.4e38")

@@ -21,3 +21,44 @@ def test_parameters_that_would_void_no_tunnelling_are_refused(capsys):
     message = capsys.readouterr().err
     assert code == 2 and "sub-steps of half a cell to rule out tunnelling; at most 4096" in message
     assert message.count("\n") == 1 and "Traceback" not in message
+
+
+NUMERIC_OPTIONS = {
+    "dejong": ["--a", "--b", "--c", "--d", "--exposure", "--point-size", "--intensity",
+               "--bloom-threshold", "--bloom-radius", "--bloom-intensity"],
+    "clifford": ["--a", "--d"],
+    "collision": ["--dt", "--gravity", "--drag", "--sliding", "--bounce"],
+}
+
+
+@pytest.mark.parametrize("scene, option, value", [
+    (scene, option, value) for scene, options in NUMERIC_OPTIONS.items() for option in options
+    for value in ("nan", "inf", "-inf")])
+def test_non_finite_parameters_are_refused_in_one_line(scene, option, value, capsys, tmp_path):
+    from es2particles.cli import main
+
+    out = tmp_path / "x.png"
+    code = main(["run", scene, option, value, "--particles", "64", "--size", "16x16",
+                 "--steps", "1", "--out", str(out)])
+    message = capsys.readouterr().err
+    assert code == 2, f"{option} {value} was accepted"
+    assert message.count("\n") == 1 and "Traceback" not in message, message
+    assert option.lstrip("-").replace("-", " ").split()[0] in message.replace("-", " "), message
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("value", ["1.5", "-0.1"])
+def test_sliding_out_of_range_is_refused_not_clamped(value, capsys):
+    from es2particles.cli import main
+
+    assert main(["run", "collision", "--sliding", value, "--out", "x.png"]) == 2
+    assert "sliding must be in [0, 1]" in capsys.readouterr().err
+
+
+def test_a_range_that_overflows_float32_is_refused():
+    from es2particles import ParameterError, PassGraph
+
+    with pytest.raises(ParameterError, match="overflows float32"):
+        PassGraph().quantity("q", -1e300, 1e300)
+    with pytest.raises(ParameterError, match="overflows float32"):
+        PassGraph().quantity("q", -3e38, 3e38)  # each bound fits; the span does not

@@ -428,6 +428,26 @@ def covered_emitter(ctx):
                 "<= 1 cell", cells <= 1.0)
 
 
+def coefficient_sizes(ctx, sizes=(1.0, 10.0, 100.0, 1e4)):
+    """De Jong's one-step error against float64 as the coefficients grow (a = c = k, b = d = -k,
+    one iteration): float32 sin and cos of arguments |k y| lose ~|k| 2^-24 each, so the error
+    grows with |k|. Shown, in codes of the range, so the accepted range [-1e4, 1e4] says what it
+    costs; within a code up to |k| = 10."""
+    rows = []
+    for k in sizes:
+        scene = DeJong((k, -k, k, -k), iterations=1)
+        with Simulation(ctx, scene.graph(), 2 ** 14) as sim:
+            scene.initialise(sim, np.random.default_rng(0))
+            start = sim.download("position")
+            sim.step()
+            got = sim.download("position")
+        error = np.abs(got - scene.iterate(start, 1)).max() / (4 / 65024)
+        rows.append((k, float(error)))
+    return Case("de Jong coefficients of size 1 / 10 / 100 / 1e4: one step's error in codes",
+                " / ".join(f"{e:.2g}" for _, e in rows), "<= 1 code up to |k| = 10",
+                all(e <= 1.0 for k, e in rows if k <= 10))
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
@@ -439,4 +459,5 @@ NUMERICS = {
     "resting creep": resting_creep,
     "clocks": clocks,
     "covered emitter": covered_emitter,
+    "coefficient sizes": coefficient_sizes,
 }

@@ -60,7 +60,9 @@ class Attractor(Scene):
     def add_arguments(cls, parser):
         for name, value in zip("abcd", cls.coefficients_default):
             parser.add_argument(f"--{name}", type=float, default=value,
-                                help=f"coefficient {name} (default {value})")
+                                help=f"coefficient {name} (default {value}; within +-1e4: float32 "
+                                     "sin and cos of larger arguments cost accuracy, one step's "
+                                     "error is 0.5 code at |k| 1, 0.7 at 100, 30 at 1e4)")
         parser.add_argument("--iterations", type=int, default=3,
                             help="map iterations inside one pass (default 3, as the article)")
         parser.add_argument("--reseed", action="store_true",

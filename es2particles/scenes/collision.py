@@ -41,7 +41,7 @@ class Physics:
     gravity: tuple = (0.0, -3.0)
     drag: float = 0.05
     spring: tuple = (0.0, 0.0, 0.0)  # centre x, y and omega^2
-    sliding: float = 0.5  # the particle's mass, clamped to [0, 1]
+    sliding: float = 0.5  # the chapter's mass as sliding factor, in [0, 1]
     bounce: float = 0.6
     emit: bool = True
     emitter: tuple = (-0.7, -0.95)
@@ -55,7 +55,7 @@ class Physics:
         check_range("dt", self.dt, 1e-6, 1.0)
         check_range("drag", self.drag, 0, 1e6)
         check_range("spring omega^2", self.spring[2], 0, 1e6)
-        object.__setattr__(self, "sliding", min(max(float(self.sliding), 0.0), 1.0))
+        check_range("sliding", self.sliding, 0, 1)
         check_range("bounce", self.bounce, 0, 2)
         check_range("spread", self.spread, 0, 2 * np.pi)
         check_range("max_speed", self.max_speed, 1e-3, 1e4)

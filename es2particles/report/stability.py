@@ -448,6 +448,61 @@ def coefficient_sizes(ctx, sizes=(1.0, 10.0, 100.0, 1e4)):
                 all(e <= 1.0 for k, e in rows if k <= 10))
 
 
+def float_state(ctx, steps=1000):
+    """Float formats store the value itself: 1e-6 added per step to 1.0 in a range of +-1e3, for
+    1000 steps, must reach 1.001 in rgba32f (within float32's rounding of each addition: half
+    an ulp of 1, 6e-8, per step). Stored as lo + unit span (as before), the resolution was span
+    2^-24 = 1.2e-4 whatever the value, and the additions were lost. rgba16f is shown: half
+    floats cannot hold 1 + 1e-6."""
+    rows = {}
+    for fmt in ("rgba32f", "rgba16f"):
+        if not ctx.caps.renderable.get(fmt):
+            continue
+        with Simulation(ctx, _drift_graph(-1e3, 1e3, (1e-6, 0.0)), 64, fmt=fmt) as sim:
+            sim.upload("position", np.ones((64, 2)))
+            sim.run(steps)
+            rows[fmt] = float(np.abs(sim.download("position")[:, 0] - (1 + steps * 1e-6)).max())
+    bound = steps * 2.0 ** -24
+    return Case("1e-6 per step on 1.0 in a range of +-1e3, 1000 steps: |error| rgba32f / rgba16f",
+                " / ".join(f"{v:.2g}" for v in rows.values()), f"rgba32f <= {bound:.2g}",
+                rows.get("rgba32f", 0.0) <= bound)
+
+
+def contact_energy(ctx, steps=600):
+    """Particles dropped onto a circle, a box and the floor (gravity 3, bounce 0.6), 10 s: the
+    largest energy gain of one step, E = |v|^2 / 2 + g y. In float32 contact adds none (the
+    push-out's work is taken from the kinetic energy, and normals of axis-aligned faces are
+    exact). With 16-bit state, storing moves each value by under a code (dithered), so E may move
+    by up to |v| sqrt2 code_v + code_v^2 + g code_x per step, either way: that is the bound."""
+    field = CollisionField(RECT, [Circle((-0.4, -0.4), 0.3), Box((0.5, -0.6), (0.3, 0.2))],
+                           resolution=(256, 256))
+    g = 3.0
+    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, -g), bounce=0.6),
+                      field=field)
+    n = 2048
+    rng = np.random.default_rng(0)
+    x = np.stack([rng.uniform(-0.95, 0.95, n), rng.uniform(0.0, 0.3, n)], 1)
+    rows = []
+    for fmt, rounding in (("rgba32f", "nearest"), ("rgba8", "dither")):
+        if not ctx.caps.renderable.get(fmt):
+            continue
+        history = run_particles(ctx, scene, x, np.zeros((n, 2)), steps, fmt=fmt,
+                                rounding=rounding)
+        energy = np.array([0.5 * np.sum(v * v, 1) + g * p[:, 1] for p, v in history])
+        speed = np.array([np.hypot(*v.T) for _, v in history])
+        gain = float(np.diff(energy, axis=0).max())
+        if fmt == "rgba8":
+            code_v, code_x = 2 * scene.physics.max_speed / 65024, 2 / 65024
+            bound = float(speed.max() * np.sqrt(2) * code_v + code_v ** 2 + g * code_x)
+        else:
+            bound = 1e-6
+        rows.append((fmt, gain, bound))
+    return Case("contact on a circle, a box, the floor, 10 s: largest energy gain of a step",
+                " / ".join(f"{fmt} {gain:.2g}" for fmt, gain, _ in rows),
+                " / ".join(f"{fmt} {bound:.2g}" for fmt, _, bound in rows),
+                all(gain <= bound for _, gain, bound in rows))
+
+
 # Cases of the numerics check, by name: the report runs them, tests/test_numerics.py asserts them.
 NUMERICS = {
     "dither at rest": dither_at_rest,
@@ -460,4 +515,6 @@ NUMERICS = {
     "clocks": clocks,
     "covered emitter": covered_emitter,
     "coefficient sizes": coefficient_sizes,
+    "float state": float_state,
+    "contact energy": contact_energy,
 }

@@ -133,6 +133,7 @@ class Context:
         self.backend = backend
         self.profile = profile
         self._gl_flush = None
+        self._gl_calls = {}
         self._owned = []
         self._programs = {}
         self._caps = None
@@ -220,8 +221,9 @@ class Context:
         tex.repeat_x = tex.repeat_y = False
         return tex
 
-    def framebuffer(self, texture):
-        return self.own(self.mgl.framebuffer(color_attachments=[texture]))
+    def framebuffer(self, texture, depth=None):
+        return self.own(self.mgl.framebuffer(color_attachments=[texture],
+                                             depth_attachment=depth))
 
     def buffer(self, data):
         return self.own(self.mgl.buffer(data))
@@ -237,10 +239,17 @@ class Context:
         return self._programs[key]
 
     @contextmanager
-    def scope(self, framebuffer, blend=None, point_size=False):
+    def scope(self, framebuffer, blend=None, point_size=False, depth_test=False,
+              depth_write=True, sprites=False):
         """GL state for one draw: target ``framebuffer``, blending (None, ``"add"``: ONE, ONE, or
-        ``"over"``: premultiplied), program point size. Everything is switched off again on the
-        way out, also when an exception passes through."""
+        ``"over"``: premultiplied), program point size, depth test and depth writes, point
+        sprites. Everything is switched off again on the way out, also when an exception passes
+        through.
+
+        ``sprites``: gl_PointCoord varies over each point. Core profiles and ES always do that;
+        the compatibility profile that :func:`open_context` prefers does it only with
+        GL_POINT_SPRITE enabled, which moderngl has no flag for, so it is switched through the
+        GL function loader."""
         import moderngl
 
         flags = moderngl.NOTHING
@@ -248,14 +257,34 @@ class Context:
             flags |= moderngl.BLEND
         if point_size:
             flags |= moderngl.PROGRAM_POINT_SIZE
+        if depth_test:
+            flags |= moderngl.DEPTH_TEST
         framebuffer.use()
+        framebuffer.depth_mask = bool(depth_write)
         self.mgl.enable_only(flags)
         if blend is not None:
             self.mgl.blend_func = BLEND_FUNCTIONS[blend]
+        point_sprite = sprites and self.profile == "compatibility"
+        if point_sprite:
+            self._gl_switch("glEnable", GL_POINT_SPRITE)
         try:
             yield
         finally:
+            if point_sprite:
+                self._gl_switch("glDisable", GL_POINT_SPRITE)
+            framebuffer.depth_mask = True
             self.mgl.enable_only(moderngl.NOTHING)
+
+    def _gl_switch(self, name, cap):
+        """glEnable/glDisable of a capability moderngl does not name, through its loader."""
+        import ctypes
+
+        if name not in self._gl_calls:
+            loader = getattr(self.mgl.mglo, "_context", None)
+            address = loader.load_opengl_function(name) if loader is not None else 0
+            self._gl_calls[name] = (ctypes.CFUNCTYPE(None, ctypes.c_uint)(address) if address
+                                    else (lambda cap: None))
+        self._gl_calls[name](cap)
 
     def vertex_array(self, program, content):
         return self.own(self.mgl.vertex_array(program, content))
@@ -358,6 +387,7 @@ def _probe_store_rule(ctx):
 
 
 BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
+GL_POINT_SPRITE = 0x8861
 
 
 class Group:
@@ -375,8 +405,12 @@ class Group:
     def texture(self, *args, **kwargs):
         return self._keep(self.ctx.texture(*args, **kwargs))
 
-    def framebuffer(self, texture):
-        return self._keep(self.ctx.framebuffer(texture))
+    def framebuffer(self, texture, depth=None):
+        return self._keep(self.ctx.framebuffer(texture, depth))
+
+    def depth(self, size):
+        """A depth renderbuffer of ``size`` (for a framebuffer that depth-tests)."""
+        return self._keep(self.ctx.own(self.ctx.mgl.depth_renderbuffer(tuple(size))))
 
     def buffer(self, data):
         return self._keep(self.ctx.buffer(data))

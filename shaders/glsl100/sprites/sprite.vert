@@ -1,0 +1,33 @@
+#version 100
+// One textured billboard per particle (an ES 2.0 point sprite): the position fetched from the
+// state texture (vertex texture fetch), the size attenuated with the eye distance d as the GL
+// point parameters do, size * sqrt(1 / (a + b d + c d^2)), times a per-particle factor from a hash
+// of its texel (random sizes, as the seed), clamped to the driver's point-size range; below the
+// fade threshold the sprite keeps the threshold size and fades by (size / threshold)^2. Alpha
+// falls with age; unborn and dead particles are not drawn. read_position(), read_life() and the
+// uniforms are declared by the renderer (es2particles/bindings.py).
+attribute vec2 a_texel;
+uniform mat4 u_view_projection;
+varying float v_alpha;
+#include "lib/life.glsl"
+
+void main()
+{
+    vec3 p = read_position(a_texel);
+    vec2 life = read_life(a_texel);
+    gl_Position = u_view_projection * vec4(p, 1.0);
+    float d = distance(u_eye, p);
+    float random = hash44(vec4(floor(a_texel * u_state_size), 11.0, 13.0)).x;
+    float size = u_size.x * mix(1.0 - u_size.y, 1.0 + u_size.y, random)
+        * sqrt(1.0 / (u_attenuation.x + u_attenuation.y * d + u_attenuation.z * d * d));
+    float fade = 1.0;
+    if (size < u_fade) {
+        fade = (size / u_fade) * (size / u_fade);
+        size = u_fade;
+    }
+    gl_PointSize = clamp(size, u_size.z, u_size.w);
+    v_alpha = life_fade(life) * fade;
+    if (!life_alive(life)) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
+    }
+}

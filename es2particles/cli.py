@@ -178,15 +178,16 @@ def _run(args):
                     if frame:
                         scene.before_frame(pipeline.sim, frame, frames)
                         pipeline.step(per_frame)
-                    pipeline.render()
+                    pipeline.render(frame, frames)
                     images.append(pipeline.image())
                 save_animation(images, out, fps)
             if state_path is not None:
                 save_state(pipeline.state(), state_path)
             print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "
                   f"particles, {pipeline.sim.steps_done} steps, {frames} frame(s)) in "
-                  f"{time.perf_counter() - start:.2f} s; density target "
-                  f"{pipeline.renderer.format_note}")
+                  f"{time.perf_counter() - start:.2f} s"
+                  + (f"; density target {pipeline.renderer.format_note}"
+                     if pipeline.post is not None else ""))
 
 
 if __name__ == "__main__":

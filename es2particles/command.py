@@ -89,8 +89,10 @@ class FullscreenCommand:
             return  # referenced, but its result is never written: the driver dropped it
         handle = self.program[name]
         try:
-            if isinstance(value, list) and handle.array_length < len(value):
-                value = value[: handle.array_length]  # the driver kept only the used elements
+            if isinstance(value, list):
+                value = value[: handle.array_length]  # the driver keeps only the used elements
+                if handle.array_length == 1:
+                    value = value[0]  # moderngl takes an array of one as its element
             handle.value = value
         except Exception as error:
             raise ParameterError(f"{self.where()}: uniform {name!r} cannot take {value!r} "

@@ -79,11 +79,18 @@ class Pipeline:
                                   outputs=scene.render_reads, fmt=fmt,
                                   rounding=defaults.rounding if rounding is None else rounding)
             reads = {q: self.sim.plan.quantities[q] for q in scene.render_reads}
-            self.renderer = PointRenderer(
-                ctx, reads, self.sim.layout, self.size, scene.view, self.sim.fmt,
-                defaults.point_size if point_size is None else point_size, intensity)
-            self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure, gradient,
-                                  bloom, scene.background())
+            point_size = defaults.point_size if point_size is None else point_size
+            if scene.render == "sprites":  # 3D: meshes, then sprites; the image is final
+                from .sprites import SpriteRenderer
+
+                self.renderer = SpriteRenderer(ctx, reads, self.sim.layout, self.size,
+                                               self.sim.fmt, scene.meshes(), point_size=point_size,
+                                               **scene.renderer_options())
+            else:
+                self.renderer = PointRenderer(ctx, reads, self.sim.layout, self.size, scene.view,
+                                              self.sim.fmt, point_size, intensity)
+                self.post = PostChain(ctx, self.size, self.renderer.mean_density, exposure,
+                                      gradient, bloom, scene.background())
             scene.initialise(self.sim, np.random.default_rng(seed))
         except Exception:
             self.release()
@@ -98,8 +105,12 @@ class Pipeline:
         """Run the steps before the first frame."""
         self.sim.run(self.steps)
 
-    def render(self):
-        """Draw the particles and run the post passes; returns the final texture."""
+    def render(self, frame=0, frames=1):
+        """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): the
+        particles, then the post passes of a 2D scene; returns the final texture."""
+        if self.post is None:
+            self.final = self.renderer.draw(self.sim.buffers, self.scene.camera_at(frame, frames))
+            return self.final
         if not self._ordered:  # once: positions repeat from frame to frame (see render.py)
             position = self.sim.buffers["position"]
             self.renderer.order_by_tiles(position.download(), self.scene.view)
@@ -112,7 +123,7 @@ class Pipeline:
         """The last rendered frame as an (h, w, 3) uint8 array, top row first."""
         if self.final is None:
             self.render()
-        return self.post.read(self.final)
+        return (self.post or self.renderer).read(self.final)
 
     def state(self):
         """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
@@ -132,8 +143,11 @@ class Pipeline:
         lines += ["  " + line for line in self.scene.describe()]
         lines.append("frame:")
         lines.append("  " + self.renderer.describe())
-        lines += ["  " + line for line in self.post.describe()]
-        left = self.post.left_out()
+        if self.post is not None:
+            lines += ["  " + line for line in self.post.describe()]
+            left = self.post.left_out()
+        else:
+            left = ["tone map, gradient map and bloom (a 3D sprite image is final)"]
         lines.append("  left out: " + (", ".join(left) if left else "nothing"))
         return "\n".join(lines)
 

@@ -64,9 +64,15 @@ def programs():
     from es2particles.scenes.collision import RECT
     from es2particles.simulation import FORMATS
 
+    from es2particles.scenes import Fountain
+    from es2particles.scenes.fountain import FountainPhysics
+
     graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
               "clifford": Clifford().graph(), "wide": wide_graph(),
-              "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph()}
+              "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph(),
+              "fountain": Fountain().graph(),
+              "fountain-bounce": Fountain(FountainPhysics(floor="bounce",
+                                                          emitters=((0, 0, 0), (1, 0, 1)))).graph()}
     out = []
     for fmt in FORMATS:
         for rounding in ("nearest", "dither"):
@@ -82,6 +88,11 @@ def programs():
                                       {"u_view": (0, 0, 1, 1), "u_point_size": 1.0}).lines
             fade = {"AGE_FADE": None} if "life" in reads else {}
             out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", fade, prelude))
+        sprite_uniforms = {"u_eye": (0, 0, 1), "u_size": (1, 0, 1, 64),
+                           "u_attenuation": (1, 0, 0), "u_fade": 1.0}
+        prelude = stage_interface(("position", "life"), graphs["fountain"].quantities, fmt,
+                                  sprite_uniforms).lines
+        out.append((f"sprites-{fmt}", "sprites/sprite.vert", {}, prelude))
     return out
 
 

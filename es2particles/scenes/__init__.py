@@ -12,11 +12,12 @@ from .base import Defaults, Fill, Scene
 from .clifford import Clifford
 from .collision import Collision
 from .dejong import DeJong
+from .fountain import Fountain
 
 ENTRY_POINT_GROUP = "es2particles.scenes"
-BUILT_IN = (DeJong, Clifford, Collision)
+BUILT_IN = (DeJong, Clifford, Collision, Fountain)
 
-__all__ = ["Attractor", "Clifford", "Collision", "DeJong", "Defaults", "Fill", "Scene",
+__all__ = ["Attractor", "Clifford", "Collision", "DeJong", "Defaults", "Fill", "Fountain", "Scene",
            "installed_scenes", "ENTRY_POINT_GROUP"]
 
 

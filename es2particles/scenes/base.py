@@ -38,6 +38,7 @@ class Scene:
 
     name = ""
     view = (-1.0, -1.0, 1.0, 1.0)  # world rectangle that fills the image: x0, y0, x1, y1
+    render = "density"  # 2D density points (PointRenderer) or 3D "sprites" (SpriteRenderer)
     render_reads = ("position",)  # quantities the renderer reads: position, and life to fade
     defaults = Defaults()
     # True where each particle lands near last frame's place (reseeded scenes): the renderer then
@@ -75,6 +76,20 @@ class Scene:
     def describe(self):
         """Extra lines for the printed plan."""
         return []
+
+    # -- 3D scenes (render = "sprites") ------------------------------------------------------
+
+    def meshes(self):
+        """Opaque meshes drawn before the particles (``sprites.Mesh``)."""
+        return []
+
+    def camera_at(self, frame, frames):
+        """The :class:`~es2particles.camera.Camera` of frame ``frame`` of ``frames``."""
+        raise NotImplementedError
+
+    def renderer_options(self):
+        """Extra keyword arguments of the sprite renderer (blend, sprite, ...)."""
+        return {}
 
     # -- carried out by the framework ------------------------------------------------------
 

@@ -1,0 +1,149 @@
+"""The 3D fountain: its step against a float64 twin, the floor, and the sprite renderer's
+projection, sizes and depth against the camera's float64 twin, on real GL."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from es2particles import Simulation
+from es2particles.camera import Camera
+from es2particles.cli import main
+from es2particles.scenes import Fountain
+from es2particles.scenes.fountain import FountainPhysics
+from es2particles.sprites import SpriteRenderer, box
+from es2particles.twins.fountain import fountain_step
+
+F32 = 1e-5  # float32 arithmetic over one step, world units
+
+
+def alive(n, lifetime=2.4):
+    return np.stack([np.full(n, 0.5), np.full(n, lifetime)], 1)
+
+
+@pytest.mark.parametrize("fmt, floor", [("rgba32f", "kill"), ("rgba8", "bounce")])
+def test_one_step_matches_the_float64_twin(gl, fmt, floor):
+    physics = FountainPhysics(floor=floor, drag=0.3)
+    scene = Fountain(physics)
+    rng = np.random.default_rng(1)
+    n = 4096
+    x = np.stack([rng.uniform(-3, 3, n), rng.uniform(0.0, 3.0, n), rng.uniform(-3, 3, n)], 1)
+    v = rng.uniform(-6, 6, (n, 3))
+    with Simulation(gl, scene.graph(), n, fmt=fmt, rounding="nearest") as sim:
+        sim.upload("position", x)
+        sim.upload("velocity", v)
+        sim.upload("life", alive(n))
+        x0, v0 = sim.download("position"), sim.download("velocity")
+        sim.step()
+        x1, v1 = sim.download("position"), sim.download("velocity")
+    xr, vr, died = fountain_step(x0, v0, physics)
+    codes = {"rgba8": (12 / 65024, 24 / 65024), "rgba32f": (0.0, 0.0)}[fmt]  # 1 code x, v
+    ex = np.abs(x1[~died] - xr[~died]).max()
+    ev = np.abs(v1[~died] - vr[~died]).max()
+    print(f"{fmt} {floor}: max |position error| {ex:.2e}, |velocity error| {ev:.2e}; "
+          f"{died.sum()} re-emitted")
+    assert ex <= codes[0] + F32 and ev <= codes[1] + F32
+    if floor == "kill":
+        assert died.sum() > 10  # the test includes particles going through the floor
+        assert np.all(x1[died, 1] >= 0), "a particle through the floor is re-emitted on it"
+
+
+@pytest.mark.parametrize("floor", ["kill", "bounce"])
+def test_nothing_ends_below_the_floor(gl, floor):
+    scene = Fountain(FountainPhysics(floor=floor))
+    with Simulation(gl, scene.graph(), 4096, rounding="dither") as sim:
+        scene.initialise(sim, np.random.default_rng(0))
+        lowest = np.inf
+        for _ in range(150):  # two longest lifetimes
+            sim.step()
+            x, life = sim.download("position"), sim.download("life")
+            living = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+            lowest = min(lowest, x[living, 1].min())
+    print(f"floor {floor}: lowest living particle after a step y = {lowest:.2e}")
+    assert lowest >= 0.0
+
+
+def sprite_frame(gl, positions, camera, meshes=(), size=(256, 256), **options):
+    """Render particles at ``positions`` (alive, at rest) and return the (h, w, 3) image."""
+    scene = Fountain(FountainPhysics(gravity=0.0))
+    n = len(positions)
+    with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
+        sim.upload("position", positions)
+        sim.upload("life", np.stack([np.zeros(n), np.full(n, 2.4)], 1))
+        renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
+                                  sim.layout, size, sim.fmt, meshes, sprite="disc",
+                                  size_spread=0.0, tint=(1, 1, 1, 0), opacity=1.0,
+                                  background=(0, 0, 0), **options)
+        try:
+            renderer.draw(sim.buffers, camera)
+            return renderer.read()
+        finally:
+            renderer.release()
+
+
+CAMERA = Camera(eye=(0.5, 2.0, 6.0), target=(0.0, 1.0, 0.0), fov=50)
+
+
+def test_sprites_land_where_the_float64_projection_puts_them_at_the_attenuated_size(gl):
+    points = np.array([[0.0, 1.0, 0.0], [1.5, 0.5, -2.0], [-1.0, 2.0, 2.0]])
+    expected, distance, visible = CAMERA.project(points, (256, 256))
+    assert visible.all()
+    c = 1 / 36.0
+    for point, centre, d in zip(points, expected, distance):
+        image = sprite_frame(gl, point[None], CAMERA, point_size=80.0, attenuation=(0, 0, c))
+        lit = np.argwhere(image[..., 0] > 8)
+        got = lit.mean(axis=0)[::-1] + 0.5  # (x, y) pixel centres, top row first
+        assert np.abs(got - centre).max() <= 1.0, (got, centre)
+        diameter = 80.0 * 256 / 1024 / np.sqrt(c * d * d)
+        width = lit[:, 1].max() - lit[:, 1].min() + 1
+        print(f"sprite at eye distance {d:.2f}: centre {got} vs {centre}, width {width} px vs "
+              f"attenuated size {diameter:.1f}")
+        # the disc's alpha reaches 0 at its rim: the lit width is a little under the size
+        assert diameter - 4 <= width <= diameter + 1
+
+
+def test_sprite_size_is_clamped_to_the_point_size_range(gl):
+    top = gl.caps.point_size_range[1]
+    image = sprite_frame(gl, np.array([[0.0, 1.0, 0.0]]), CAMERA, size=(512, 512),
+                         point_size=4 * top * 1024 / 512, attenuation=(1, 0, 0))
+    width = np.ptp(np.argwhere(image[..., 0] > 8)[:, 1]) + 1
+    print(f"point size range top {top}: drawn width {width}")
+    assert width <= top
+
+
+def test_a_particle_behind_the_cube_is_hidden_one_in_front_is_not(gl):
+    cube = box((0.0, 1.0, 0.0), (0.5, 0.5, 0.5), colour=(0.0, 0.0, 1.0))
+    behind, front = np.array([[0.0, 1.0, -2.0]]), np.array([[0.0, 1.0, 2.0]])
+    camera = Camera(eye=(0.0, 1.0, 6.0), target=(0.0, 1.0, 0.0))
+    for point, hidden in ((behind, True), (front, False)):
+        image = sprite_frame(gl, point, camera, meshes=[cube], point_size=40.0,
+                             attenuation=(1, 0, 0), light=(0.0, 1.0, 6.0))
+        centre = np.round(camera.project(point, (256, 256))[0][0]).astype(int)
+        r, g, b = image[centre[1], centre[0]].astype(int)
+        print(f"{'behind' if hidden else 'in front of'} the cube: centre pixel {r, g, b}")
+        assert (r < 20) if hidden else (r > 200), "depth test against the opaque scene"
+        assert b > 100, "the cube is there"
+
+
+def test_cli_fountain_still_and_orbit(tmp_path, capsys):
+    from PIL import Image
+
+    out = tmp_path / "f.png"
+    assert main(["run", "fountain", "--size", "256x256", "--out", str(out)]) == 0
+    with Image.open(out) as image:
+        pixels = np.asarray(image).astype(int)
+    fire = (pixels[..., 0] > 150) & (pixels[..., 0] > pixels[..., 2] + 60)
+    assert 0.005 < fire.mean() < 0.3, fire.mean()  # glowing sprites, not blank, not a flood
+    anim = tmp_path / "f.webp"
+    assert main(["run", "fountain", "--size", "96x96", "--frames", "4", "--camera", "orbit",
+                 "--out", str(anim)]) == 0
+    with Image.open(anim) as image:
+        assert image.n_frames == 4
+        image.seek(0)
+        first = np.asarray(image.convert("RGB")).astype(int)
+        image.seek(2)
+        half = np.asarray(image.convert("RGB")).astype(int)
+    assert np.abs(first - half).mean() > 5, "the camera moved"
+    assert main(["plan", "fountain", "--particles", "256", "--size", "64x64"]) == 0
+    text = capsys.readouterr().out
+    assert "writes position part 2/2 (z)" in text and "point sprites" in text

@@ -2,7 +2,9 @@
 
 Run: ``python benchmarks/bench.py`` (after ``pip install .``; ``pip install ".[bench]"`` adds
 datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes dejong,collision``,
-``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak). It prints tables and writes
+``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak); ``--scenes fountain``
+adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pixels, both
+blend modes). It prints tables and writes
 them as Markdown to ``out/bench/bench.md``.
 
 Each time is the median (and min, max) of the repeats after a warm-up, with the GL work finished
@@ -158,6 +160,43 @@ def startup():
     return imports, context, command, script
 
 
+def fountain_section(ctx, sizes, repeats, emit):
+    """The 3D fountain: its step against the numpy twin of the same step (float64), and the
+    sprite render (meshes, then sprites with depth) at sprite sizes of 1 to 32 pixels in both
+    blend modes. Sprites draw at a fixed size here (no attenuation) so the size is what is
+    timed."""
+    from es2particles.scenes import Fountain
+    from es2particles.sprites import SpriteRenderer
+    from es2particles.twins.fountain import fountain_step
+
+    scene = Fountain()
+    camera = scene.camera_at(0, 1)
+    emit("| N | stage | ours ms (min-max) | numpy ms | numpy/ours |")
+    emit("|---|---|---|---|---|")
+    for log2n in sizes:
+        count = 2 ** log2n
+        with Pipeline(ctx, scene, count, SIZE) as p:
+            p.warm_up()
+            finish = ctx.mgl.finish
+            step = timed(lambda: p.step(1), repeats, finish)
+            x, v = p.sim.download("position"), p.sim.download("velocity")
+            peer = timed(lambda: fountain_step(x, v, scene.physics), repeats)
+            emit(f"| 2^{log2n} | step | {fmt_ms(step)} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f})"
+                 f" | {fmt_ms(peer)} | {peer[0] / step[0]:.2f} |")
+            reads = {q: p.sim.plan.quantities[q] for q in scene.render_reads}
+            for pixels in (1, 4, 16, 32):
+                for blend in ("add", "over"):
+                    renderer = SpriteRenderer(ctx, reads, p.sim.layout, SIZE, p.sim.fmt,
+                                              scene.meshes(), point_size=pixels, blend=blend,
+                                              size_spread=0.0, attenuation=(1.0, 0.0, 0.0))
+                    try:
+                        t = timed(lambda: renderer.draw(p.sim.buffers, camera), repeats, finish)
+                    finally:
+                        renderer.release()
+                    emit(f"| 2^{log2n} | render, {pixels} px sprites, {blend} | {fmt_ms(t)} "
+                         f"({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | - | - |")
+
+
 def fmt_ms(t):
     return "-" if t is None else f"{t[0] * 1e3:.1f}"
 
@@ -187,6 +226,9 @@ def main(argv=None):
             emit()
             emit(f"## {scene}")
             emit()
+            if scene == "fountain":
+                fountain_section(ctx, sizes, args.repeats, emit)
+                continue
             emit("| N | stage | ours ms (min-max) | fps | numpy ms | numpy/ours | datashader ms | "
                  "datashader/ours |")
             emit("|---|---|---|---|---|---|---|---|")

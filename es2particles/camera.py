@@ -107,3 +107,19 @@ def orbit(frame, frames, radius=6.0, height=2.5, target=(0.0, 1.0, 0.0), fov=45.
     angle = 2 * np.pi * turns * (frame / max(frames, 1))
     eye = (target[0] + radius * np.sin(angle), height, target[2] + radius * np.cos(angle))
     return Camera(eye=eye, target=target, fov=fov)
+
+
+def keyframes(cameras, frame, frames):
+    """The camera of frame ``frame`` of ``frames`` on a path through ``cameras`` (a list of
+    Camera, spread evenly over the animation): eye, target and field of view interpolated
+    linearly between neighbouring keys."""
+    if not cameras:
+        raise ParameterError("keyframes needs at least one camera")
+    if len(cameras) == 1 or frames <= 1:
+        return cameras[0]
+    t = frame / (frames - 1) * (len(cameras) - 1)
+    k = min(int(t), len(cameras) - 2)
+    a, b, u = cameras[k], cameras[k + 1], t - k
+    mix = lambda p, q: tuple((1 - u) * np.asarray(p) + u * np.asarray(q))  # noqa: E731
+    return Camera(eye=mix(a.eye, b.eye), target=mix(a.target, b.target), up=a.up,
+                  fov=(1 - u) * a.fov + u * b.fov, near=a.near, far=a.far, ortho=a.ortho)

@@ -117,8 +117,10 @@ class Plan:
                          f"{', '.join(reads) if reads else 'nothing'}")
         per_particle = sum(n * self.quantities[q].bytes_per_particle(fmt)
                            for q, n in self.buffers.items())
+        others = ", ".join(f"{f} {sum(n * self.quantities[q].bytes_per_particle(f) for q, n in self.buffers.items())}"
+                           for f in ("rgba8", "rgba16f", "rgba32f") if f != fmt)
         lines.append(f"state textures ({fmt}): {self.texture_count_in(fmt)}, {per_particle} bytes "
-                     "per particle")
+                     f"per particle (in {others})")
         for name, n in self.buffers.items():
             q = self.quantities[name]
             why = ("ping-pong: last step's value is read" if n == 2

@@ -147,3 +147,17 @@ def test_cli_fountain_still_and_orbit(tmp_path, capsys):
     assert main(["plan", "fountain", "--particles", "256", "--size", "64x64"]) == 0
     text = capsys.readouterr().out
     assert "writes position part 2/2 (z)" in text and "point sprites" in text
+
+
+def test_camera_paths_and_the_orthographic_projection():
+    from es2particles.camera import keyframes, orbit
+
+    a, b = Camera(eye=(0, 2, 6)), Camera(eye=(6, 2, 0), fov=60)
+    mid = keyframes([a, b], 5, 11)
+    assert np.allclose(mid.eye, (3, 2, 3)) and mid.fov == 52.5
+    assert keyframes([a, b], 10, 11).eye == b.eye
+    assert np.allclose(orbit(0, 4).eye, (0, 2.5, 6)) and np.allclose(orbit(1, 4).eye, (6, 2.5, 0))
+    # orthographic: a point's pixel does not depend on its depth
+    ortho = Camera(eye=(0, 0, 5), target=(0, 0, 0), ortho=2.0)
+    pixels, _, _ = ortho.project(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, -3.0]]), (200, 200))
+    assert np.allclose(pixels, [[150, 50], [150, 50]])

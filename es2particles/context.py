@@ -54,6 +54,18 @@ PROFILES = (("compatibility", 300), ("core", 330))
 MIN_GL_VERSION = 330  # what moderngl itself needs
 
 
+def _profiles():
+    """Profiles to try; ES2PARTICLES_PROFILE (compatibility or core) asks for one alone."""
+    forced = os.environ.get("ES2PARTICLES_PROFILE")
+    if forced is None:
+        return PROFILES
+    chosen = [p for p in PROFILES if p[0] == forced]
+    if not chosen:
+        raise ContextError(f"ES2PARTICLES_PROFILE must be one of "
+                           f"{[p for p, _ in PROFILES]}, got {forced!r}")
+    return chosen
+
+
 def open_context():
     """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install."""
     import moderngl
@@ -64,7 +76,7 @@ def open_context():
         if backend:
             kwargs["backend"] = backend
         errors = []
-        for profile, version in PROFILES:
+        for profile, version in _profiles():
             try:
                 mgl = moderngl.create_context(require=version, **kwargs)
             except Exception as error:  # the binding raises bare Exceptions with the loader's words
@@ -247,9 +259,9 @@ class Context:
         through.
 
         ``sprites``: gl_PointCoord varies over each point. Core profiles and ES always do that;
-        the compatibility profile that :func:`open_context` prefers does it only with
+        by the spec, the compatibility profile that :func:`open_context` prefers does it only with
         GL_POINT_SPRITE enabled, which moderngl has no flag for, so it is switched through the
-        GL function loader."""
+        GL function loader. (Mesa varies it for ES shaders even without the switch.)"""
         import moderngl
 
         flags = moderngl.NOTHING

@@ -161,3 +161,56 @@ def test_camera_paths_and_the_orthographic_projection():
     ortho = Camera(eye=(0, 0, 5), target=(0, 0, 0), ortho=2.0)
     pixels, _, _ = ortho.project(np.array([[1.0, 1.0, 0.0], [1.0, 1.0, -3.0]]), (200, 200))
     assert np.allclose(pixels, [[150, 50], [150, 50]])
+
+
+SPRITE_PROBE = """
+import json, numpy as np
+from es2particles import open_context, Simulation
+from es2particles.camera import Camera
+from es2particles.scenes import Fountain
+from es2particles.scenes.fountain import FountainPhysics
+from es2particles.sprites import SpriteRenderer
+with open_context() as ctx:
+    scene = Fountain(FountainPhysics(gravity=0.0))
+    with Simulation(ctx, scene.graph(), 1, fmt="rgba32f") as sim:
+        sim.upload("position", np.array([[0.3, 1.2, 0.5]]))
+        sim.upload("life", np.array([[0.0, 2.4]]))
+        r = SpriteRenderer(ctx, {q: sim.plan.quantities[q] for q in ("position", "life")},
+                           sim.layout, (128, 128), sim.fmt, sprite="disc", size_spread=0.0,
+                           point_size=160.0, attenuation=(1, 0, 0), tint=(1, 1, 1, 0),
+                           opacity=1.0, background=(0, 0, 0))
+        r.draw(sim.buffers, Camera(eye=(0, 2, 6), target=(0, 1, 0)))
+        image = r.read()[..., 0]
+        r.release()
+    print(json.dumps({"profile": ctx.profile, "image": image.tolist()}))
+"""
+
+
+def test_sprites_are_the_same_in_the_core_and_the_compatibility_profile():
+    """Point sprites differ between profiles: the compatibility profile's spec gives
+    gl_PointCoord only with GL_POINT_SPRITE enabled, core always. Both must draw the same
+    textured disc. (Mesa gives it to ES shaders in both even without the switch: with it off,
+    this still passes here; the switch is for drivers that follow the compatibility spec.)"""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    images = {}
+    for profile in ("compatibility", "core"):
+        env = dict(os.environ, ES2PARTICLES_PROFILE=profile)
+        result = subprocess.run([sys.executable, "-c", SPRITE_PROBE], capture_output=True,
+                                text=True, env=env)
+        assert result.returncode == 0, result.stderr
+        answer = json.loads(result.stdout)
+        assert answer["profile"] == profile
+        images[profile] = np.array(answer["image"])
+    compat, core = images["compatibility"], images["core"]
+    lit = compat > 8
+    assert 100 < lit.sum() < 2000, "a disc of about 40 pixels across"
+    # a disc, not a square: the corners of its bounding box are dark
+    rows, cols = np.nonzero(lit)
+    assert compat[rows.min(), cols.min()] < 8 and compat[rows.max(), cols.max()] < 8
+    print(f"lit pixels: compatibility {lit.sum()}, core {(core > 8).sum()}; max difference "
+          f"{np.abs(compat - core).max()}")
+    assert np.abs(compat - core).max() <= 2

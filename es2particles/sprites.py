@@ -33,6 +33,8 @@ class Mesh:
     colour: tuple = (0.7, 0.7, 0.7)
     colour2: tuple = None
     checker: float = 0.0
+    uvs: np.ndarray = None  # (n, 3, 2) texture coordinates, with ``texture``
+    texture: np.ndarray = None  # (h, w, 4) uint8, multiplied into the colour
 
 
 def floor(half_size=6.0, cell=1.0, colour=(0.32, 0.34, 0.40), colour2=(0.22, 0.23, 0.28)):
@@ -43,10 +45,12 @@ def floor(half_size=6.0, cell=1.0, colour=(0.32, 0.34, 0.40), colour2=(0.22, 0.2
     return Mesh(triangles, np.tile([0.0, 1.0, 0.0], (2, 3, 1)), colour, colour2, cell)
 
 
-def box(centre, half_size, colour=(0.75, 0.55, 0.35)):
-    """An axis-aligned box, 12 triangles with face normals."""
+def box(centre, half_size, colour=(0.75, 0.55, 0.35), texture=None):
+    """An axis-aligned box, 12 triangles with face normals; with ``texture`` (h, w, 4), each face
+    shows the whole texture (the seed's textured cube)."""
     c, h = np.asarray(centre, float), np.asarray(half_size, float)
-    triangles, normals = [], []
+    triangles, normals, uvs = [], [], []
+    corners_uv = [(0, 0), (1, 0), (1, 1), (0, 1)]
     for axis in range(3):
         for sign in (-1.0, 1.0):
             n = np.zeros(3)
@@ -58,7 +62,24 @@ def box(centre, half_size, colour=(0.75, 0.55, 0.35)):
             q = [c + h * (n + a * u + b * v) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
             triangles += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
             normals += [[n] * 3] * 2
-    return Mesh(np.array(triangles), np.array(normals), colour)
+            uvs += [[corners_uv[0], corners_uv[1], corners_uv[2]],
+                    [corners_uv[0], corners_uv[2], corners_uv[3]]]
+    if texture is None:
+        return Mesh(np.array(triangles), np.array(normals), colour)
+    return Mesh(np.array(triangles), np.array(normals), colour, uvs=np.array(uvs, float),
+                texture=np.asarray(texture, np.uint8))
+
+
+def crate_texture(size=64):
+    """A wooden crate face: planks with a dark frame and a diagonal brace, (size, size, 4)."""
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size
+    grain = 0.85 + 0.15 * np.sin(40 * y + 6 * np.sin(9 * x))
+    planks = np.where((y * 4) % 1 < 0.06, 0.55, 1.0)  # gaps between four planks
+    frame = (np.minimum.reduce([x, y, 1 - x, 1 - y]) < 0.1) | (np.abs(x - y) < 0.07)
+    shade = np.where(frame, 0.6, planks * grain)
+    wood = np.array([0.95, 0.7, 0.42])
+    rgba = np.concatenate([shade[..., None] * wood, np.ones((size, size, 1))], -1)
+    return (rgba * 255).round().astype(np.uint8)
 
 
 def sphere(centre, radius, colour=(0.45, 0.55, 0.75), rings=16, segments=32):
@@ -212,16 +233,27 @@ class SpriteRenderer:
 
     def _mesh(self, mesh, light):
         defines = {"CHECKER": None} if mesh.colour2 is not None else {}
+        columns = [mesh.triangles.reshape(-1, 3), mesh.normals.reshape(-1, 3)]
+        layout, names = "3f 3f", ["a_position", "a_normal"]
+        if mesh.texture is not None:
+            defines["TEXTURED"] = None
+            columns.append(mesh.uvs.reshape(-1, 2))
+            layout, names = layout + " 2f", names + ["a_uv"]
         program = self.ctx.program("sprites/mesh.vert", "sprites/mesh.frag", defines)
-        data = np.concatenate([mesh.triangles.reshape(-1, 3), mesh.normals.reshape(-1, 3)], 1)
-        buffer = self.group.buffer(data.astype("f4").tobytes())
-        vao = self.group.vertex_array(program, [(buffer, "3f 3f", "a_position", "a_normal")])
+        buffer = self.group.buffer(np.concatenate(columns, 1).astype("f4").tobytes())
+        vao = self.group.vertex_array(program, [(buffer, layout, *names)])
+        texture = None
+        if mesh.texture is not None:
+            h, w = mesh.texture.shape[:2]
+            texture = self.group.texture((w, h), "rgba8", data=mesh.texture[::-1].tobytes(),
+                                         filter_nearest=False)
+            program["u_texture"].value = 0
         program["u_light"].value = tuple(float(v) for v in light)
         program["u_colour"].value = tuple(float(v) for v in mesh.colour)
         if mesh.colour2 is not None:
             program["u_colour2"].value = tuple(float(v) for v in mesh.colour2)
             program["u_checker"].value = float(mesh.checker)
-        return program, vao
+        return program, vao, texture
 
     def describe(self):
         w, h = self.size
@@ -236,7 +268,9 @@ class SpriteRenderer:
         view_projection = camera.uniform(aspect)
         with self.ctx.scope(self.framebuffer, depth_test=True):
             self.framebuffer.clear(*self.background, 1.0, depth=1.0)
-            for program, vao in self.meshes:
+            for program, vao, texture in self.meshes:
+                if texture is not None:
+                    texture.use(0)
                 program["u_view_projection"].value = view_projection
                 vao.render(moderngl.TRIANGLES)
         for name, (_, q, part, _) in self.interface.samplers.items():

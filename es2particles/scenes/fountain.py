@@ -15,7 +15,7 @@ import numpy as np
 from ..camera import Camera, orbit
 from ..errors import ParameterError, check_range
 from ..graph import PassGraph
-from ..sprites import box, floor
+from ..sprites import box, crate_texture, floor
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene
 
@@ -156,7 +156,8 @@ class Fountain(Scene):
 
     def meshes(self):
         """The seed's scenery: a checkered floor and a cube beside the fountain."""
-        return [floor(FLOOR_HALF), box((2.2, 0.6, -1.2), (0.6, 0.6, 0.6))]
+        return [floor(FLOOR_HALF), box((2.2, 0.6, -1.2), (0.6, 0.6, 0.6), colour=(1.0, 1.0, 1.0),
+                                       texture=crate_texture())]
 
     def camera_at(self, frame, frames):
         if self.camera == "orbit":

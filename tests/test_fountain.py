@@ -214,3 +214,28 @@ def test_sprites_are_the_same_in_the_core_and_the_compatibility_profile():
     print(f"lit pixels: compatibility {lit.sum()}, core {(core > 8).sum()}; max difference "
           f"{np.abs(compat - core).max()}")
     assert np.abs(compat - core).max() <= 2
+
+
+def test_emitter_table_points_directions_and_rates(gl):
+    """Two emitters with rates 3:1, one launching up, one sideways along +x: newly emitted
+    particles sit on their emitter, share the particles 3:1, and fly along its direction."""
+    emitters = ((-2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 3.0), (2.0, 0.5, 0.0, 1.0, 0.0, 0.0, 1.0))
+    physics = FountainPhysics(emitters=emitters, lifetime=(0.5, 0.5), gravity=0.0, drag=0.0)
+    scene = Fountain(physics)
+    n = 8192
+    with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
+        scene.initialise(sim, np.random.default_rng(0))
+        sim.run(40)
+        x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
+    new = (life[:, 0] < 0.5 * physics.dt) & (life[:, 0] >= 0)  # emitted this step: at rest where born
+    assert new.sum() > 50
+    first = np.linalg.norm(x[new] - (-2.0, 0.0, 0.0), axis=1) < 1e-4
+    second = np.linalg.norm(x[new] - (2.0, 0.5, 0.0), axis=1) < 1e-4
+    assert np.all(first | second), "a new particle sits on its emitter"
+    share = first.sum() / new.sum()
+    print(f"emitted this step: {new.sum()}, first emitter's share {share:.3f} (rate 3:1 -> 0.75)")
+    assert abs(share - 0.75) < 4 * np.sqrt(0.75 * 0.25 / new.sum())
+    up = v[new][first] / np.linalg.norm(v[new][first], axis=1, keepdims=True)
+    side = v[new][second] / np.linalg.norm(v[new][second], axis=1, keepdims=True)
+    # along the direction by the up speed (5-7), across it by 0.6-1.4: within ~16 degrees
+    assert up[:, 1].min() > 0.95 and side[:, 0].min() > 0.95

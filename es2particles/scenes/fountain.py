@@ -41,6 +41,7 @@ class FountainPhysics:
     lifetime: tuple = (2.0, 2.5)
     floor: str = "kill"
     bounce: float = 0.5
+    # (x, y, z) points, or (x, y, z, dx, dy, dz[, rate]) with a launch direction and a rate
     emitters: tuple = ((0.0, 0.0, 0.0),)
     max_speed: float = 12.0
 
@@ -64,15 +65,30 @@ class FountainPhysics:
             raise ParameterError(f"emitters must be 1 to 16 (x, y, z) points, got "
                                  f"{len(self.emitters)}")
         for e in self.emitters:
-            if len(e) != 3:
-                raise ParameterError(f"an emitter is an (x, y, z) point, got {e}")
+            if len(e) not in (3, 6, 7):
+                raise ParameterError(f"an emitter is x,y,z or x,y,z,dx,dy,dz or "
+                                     f"x,y,z,dx,dy,dz,rate; got {e}")
             check_range("emitter x", e[0], -FLOOR_HALF, FLOOR_HALF)
             check_range("emitter y", e[1], 0.0, HEIGHT)
             check_range("emitter z", e[2], -FLOOR_HALF, FLOOR_HALF)
+            if len(e) >= 6 and not np.linalg.norm([check_range("emitter direction", v)
+                                                   for v in e[3:6]]) > 0:
+                raise ParameterError(f"an emitter's direction must not be zero, got {e[3:6]}")
+            if len(e) == 7:
+                check_range("emitter rate", e[6], 1e-6, 1e6)
+
+    def table(self):
+        """(points (k, 3), unit directions (k, 3), shares of the particles (k,))."""
+        full = [tuple(e) + (0.0, 1.0, 0.0, 1.0)[len(e) - 3:] for e in self.emitters]
+        table = np.array(full, dtype=float)
+        directions = table[:, 3:6] / np.linalg.norm(table[:, 3:6], axis=1, keepdims=True)
+        return table[:, :3], directions, table[:, 6] / table[:, 6].sum()
 
     def uniforms(self):
-        emitters = np.zeros((len(self.emitters), 4))
-        emitters[:, :3] = self.emitters
+        points, directions, shares = self.table()
+        emitters = np.zeros((2 * len(points), 4))
+        emitters[0::2, :3], emitters[0::2, 3] = points, np.cumsum(shares)
+        emitters[1::2, :3] = directions
         return {"u_dt": float(self.dt), "u_gravity": (0.0, -float(self.gravity), 0.0),
                 "u_drag": float(self.drag), "u_bounce": float(self.bounce),
                 "u_max_speed": float(self.max_speed),
@@ -112,7 +128,9 @@ class Fountain(Scene):
         add("--lifetime", type=float, nargs=2, default=(2.0, 2.5), metavar=("MIN", "MAX"),
             help="lifetime range in seconds (default 2 2.5)")
         add("--emitters", default="0,0,0",
-            help="emitter points x,y,z separated by ';' (default one at the origin)")
+            help="emitters separated by ';': x,y,z, or x,y,z,dx,dy,dz (a launch direction), or "
+                 "x,y,z,dx,dy,dz,rate (a share of the particles); default one at the origin, "
+                 "launching up")
         add("--camera", choices=CAMERAS, default="fixed",
             help="fixed, or orbit: circle the scene once over the frames of an animation")
         add("--blend", choices=("add", "over"), default="add",
@@ -125,8 +143,8 @@ class Fountain(Scene):
             emitters = tuple(tuple(float(v) for v in e.split(","))
                              for e in args.emitters.split(";") if e.strip())
         except ValueError:
-            raise ParameterError(f"--emitters must be x,y,z points separated by ';', got "
-                                 f"{args.emitters!r}") from None
+            raise ParameterError(f"--emitters must be numbers x,y,z[,dx,dy,dz[,rate]] separated "
+                                 f"by ';', got {args.emitters!r}") from None
         physics = FountainPhysics(dt=args.dt, gravity=args.gravity, drag=args.drag,
                                   floor=args.floor, bounce=args.bounce,
                                   lifetime=tuple(args.lifetime), emitters=emitters)
@@ -149,9 +167,9 @@ class Fountain(Scene):
 
     def start(self, count, rng):
         p = self.physics
-        emitters = np.asarray(p.emitters, float)
+        points = p.table()[0]
         return {"life": staggered_births(count, p.lifetime, rng),
-                "position": emitters[np.arange(count) % len(emitters)],
+                "position": points[np.arange(count) % len(points)],
                 "velocity": np.zeros((count, 3))}
 
     def meshes(self):

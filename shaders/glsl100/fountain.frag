@@ -6,7 +6,9 @@
 // (WRITE_VELOCITY, WRITE_POSITION, WRITE_LIFE) computing the same particle, as collision.frag.
 // Uniforms, declared by the graph from the scene (scenes/fountain.py): u_dt, u_gravity (vec3),
 // u_drag, u_bounce, u_max_speed, u_speed (horizontal min, max, vertical min, max), u_lifetime,
-// u_emitters[EMITTERS] (x, y, z of each emitter; a particle's is chosen by its texel index).
+// u_emitters[2 EMITTERS] (per emitter: its point and the cumulative share of the particles up to
+// it, then its direction). A particle's emitter is chosen by a hash of its texel index against
+// the shares, so each emitter gets its rate's share of the particles.
 // numpy twin: es2particles/twins/fountain.py.
 #include "lib/life.glsl"
 
@@ -16,14 +18,16 @@ struct Particle {
     vec2 life;
 };
 
-vec3 emitter_of(vec2 uv)
+// The emitter of the particle at ``uv``: its point (xyz) and direction (out).
+vec3 emitter_of(vec2 uv, out vec3 direction)
 {
-    vec2 texel = floor(uv * u_state_size);
-    float k = mod(texel.y * u_state_size.x + texel.x, float(EMITTERS));
+    float share = hash44(vec4(floor(uv * u_state_size), 19.0, 23.0)).x;
     vec3 e = u_emitters[0].xyz;
+    direction = u_emitters[1].xyz;
     for (int i = 1; i < EMITTERS; ++i) {  // ES 1.00 fragment shaders index uniforms by constants
-        if (float(i) == k) {
-            e = u_emitters[i].xyz;
+        if (share >= u_emitters[2 * i - 2].w) {
+            e = u_emitters[2 * i].xyz;
+            direction = u_emitters[2 * i + 1].xyz;
         }
     }
     return e;
@@ -34,9 +38,14 @@ Particle emit(vec2 uv)
     vec4 r = life_random(uv);
     float azimuth = 6.2831853 * r.x;
     float across = mix(u_speed.x, u_speed.y, r.y);
+    vec3 up;
     Particle p;
-    p.x = emitter_of(uv);
-    p.v = vec3(cos(azimuth) * across, mix(u_speed.z, u_speed.w, r.z), sin(azimuth) * across);
+    p.x = emitter_of(uv, up);
+    // The launch in the emitter's frame: "up" speed along its direction, "across" speed at a
+    // random azimuth around it.
+    vec3 side = normalize(cross(up, abs(up.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+    vec3 other = cross(up, side);
+    p.v = up * mix(u_speed.z, u_speed.w, r.z) + (side * cos(azimuth) + other * sin(azimuth)) * across;
     p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, r.w));
     return p;
 }

@@ -17,6 +17,7 @@ import re
 import moderngl
 
 from .bindings import check_source
+from .context import ProgramValues
 from .errors import ParameterError
 from .shaders import GENERATED, expand
 
@@ -59,8 +60,9 @@ class FullscreenCommand:
         self.samplers = sorted(name for name, m in members.items()
                                if isinstance(m, moderngl.Uniform) and m.gl_type == GL_SAMPLER_2D)
         self.units = {name: unit for unit, name in enumerate(self.samplers)}
+        self.state = ProgramValues(self.ctx, self.program)  # the program may be shared
         for name, unit in self.units.items():
-            self.program[name].value = unit
+            self.state.set(name, unit)
         self.active = {name for name, m in members.items() if isinstance(m, moderngl.Uniform)}
 
     def where(self):
@@ -93,7 +95,7 @@ class FullscreenCommand:
                 value = value[: handle.array_length]  # the driver keeps only the used elements
                 if handle.array_length == 1:
                     value = value[0]  # moderngl takes an array of one as its element
-            handle.value = value
+            self.state.set(name, value)
         except Exception as error:
             raise ParameterError(f"{self.where()}: uniform {name!r} cannot take {value!r} "
                                  f"({error})") from None
@@ -118,6 +120,7 @@ class FullscreenCommand:
         except KeyError:
             self.check_fed(textures)
             raise
+        self.state.current()
         with self.ctx.scope(framebuffer, blend=blend):
             self.vao.render(moderngl.TRIANGLES)
 

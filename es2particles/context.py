@@ -146,6 +146,7 @@ class Context:
         self.profile = profile
         self._gl_flush = None
         self._gl_calls = {}
+        self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         self._owned = []
         self._programs = {}
         self._caps = None
@@ -400,6 +401,31 @@ def _probe_store_rule(ctx):
 
 BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
 GL_POINT_SPRITE = 0x8861
+
+
+class ProgramValues:
+    """The uniform values one user keeps on a program. The context compiles each program once and
+    hands it to every user with the same sources and defines, but uniform values live in the
+    program: each user keeps its own here, and they are set again whenever another user set the
+    program's last (two simulations of one graph with other ranges, two meshes of one shader in
+    other colours)."""
+
+    def __init__(self, ctx, program):
+        self.ctx, self.program, self.values = ctx, program, {}
+
+    def set(self, name, value):
+        """Keep ``value`` for uniform ``name`` (active in the program) and set it now."""
+        self.current()
+        self.program[name].value = value
+        self.values[name] = value
+
+    def current(self):
+        """Make the program hold this user's values (a no-op when it already does)."""
+        users = self.ctx._program_users
+        if users.get(id(self.program)) is not self:
+            for name, value in self.values.items():
+                self.program[name].value = value
+            users[id(self.program)] = self
 
 
 class Group:

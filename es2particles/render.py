@@ -10,7 +10,7 @@ import moderngl
 import numpy as np
 
 from .bindings import check_source, stage_interface
-from .context import bytes_per_texel
+from .context import ProgramValues, bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
 from .graph import _bytes
 from .shaders import expand
@@ -105,13 +105,12 @@ class PointRenderer:
         try:
             self.program = ctx.program("points.vert", "points.frag", defines,
                                        vertex_prelude=self.interface.lines)
+            self.state = ProgramValues(ctx, self.program)  # the program may be shared
             self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
-            for name, unit in self.units.items():
-                self.program[name].value = unit
-            for name, value in {**self.interface.fixed, **uniforms}.items():
+            for name, value in {**self.units, **self.interface.fixed, **uniforms}.items():
                 if name in self.program:
-                    self.program[name].value = value
-            self.program["u_colour"].value = (self.intensity * self.scale,) * 4
+                    self.state.set(name, value)
+            self.state.set("u_colour", (self.intensity * self.scale,) * 4)
             self.texels = self.group.buffer(layout.texel_uv().tobytes())
             self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
             self.density = self.group.texture(self.size, self.format, filter_nearest=False)
@@ -151,6 +150,7 @@ class PointRenderer:
         StateBuffer."""
         for name, (kind, q, part, _) in self.interface.samplers.items():
             buffers[q].fronts[part].use(self.units[name])
+        self.state.current()
         with self.ctx.scope(self.framebuffer, blend="add", point_size=True):
             self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
             count, step = self.layout.count, self.draw_slice

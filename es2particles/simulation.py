@@ -62,11 +62,11 @@ class _Draw:
         cmd.check_fed(self.interface.samplers)
         for name, value in self.interface.fixed.items():
             if cmd.has(name):
-                cmd.program[name].value = value
+                cmd.state.set(name, value)
         for name, value in (("u_state_size", (float(layout.width), float(layout.height))),
                             ("u_count", float(layout.count))):
             if cmd.has(name):
-                cmd.program[name].value = value
+                cmd.state.set(name, value)
         for name, value in spec.uniforms.items():
             self.set_uniform(name, value)
         self.step_uniform = cmd.program["u_step"] if cmd.has("u_step") else None
@@ -84,6 +84,7 @@ class _Draw:
         textures = dict(self.fixed_textures)
         for sampler, buffer, part, new in self.inputs:
             textures[sampler] = (buffer.written if new else buffer.fronts)[part]
+        self.command.state.current()
         if self.step_uniform is not None:
             self.step_uniform.value = float(step)
         self.command.draw(self.written.framebuffer(self.part), textures)

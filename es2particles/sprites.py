@@ -15,6 +15,7 @@ import moderngl
 import numpy as np
 
 from .bindings import check_source, stage_interface
+from .context import ProgramValues
 from .errors import CapabilityError, ParameterError, check_range
 from .shaders import expand
 
@@ -207,20 +208,20 @@ class SpriteRenderer:
         try:
             self.program = ctx.program("sprites/sprite.vert", "sprites/sprite.frag",
                                        vertex_prelude=self.interface.lines)
-            for name, value in {**self.interface.fixed, **uniforms}.items():
-                if name in self.program:
-                    self.program[name].value = value
-            if "u_state_size" in self.program:  # the per-particle size hash reads it
-                self.program["u_state_size"].value = (float(layout.width), float(layout.height))
-            self.program["u_tint"].value = tuple(float(v) for v in tint)
-            self.program["u_opacity"].value = float(check_range("opacity", opacity, 0.0, 1.0))
+            self.state = ProgramValues(ctx, self.program)  # the program may be shared
             self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
-            for name, unit in self.units.items():
-                self.program[name].value = unit
             self.sprite_unit = len(self.units)
-            self.program["u_sprite"].value = self.sprite_unit
+            values = {**self.units, **self.interface.fixed, **uniforms, "u_sprite": self.sprite_unit,
+                      "u_state_size": (float(layout.width), float(layout.height)),  # size hash
+                      "u_tint": tuple(float(v) for v in tint),
+                      "u_opacity": float(check_range("opacity", opacity, 0.0, 1.0))}
+            for name, value in values.items():
+                if name in self.program:
+                    self.state.set(name, value)
             h, w = texture.shape[:2]
-            self.sprite = self.group.texture((w, h), "rgba8", data=texture[::-1].tobytes(),
+            # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's
+            # first row belongs (meshes' textures are flipped: their v = 0 is the bottom).
+            self.sprite = self.group.texture((w, h), "rgba8", data=texture.tobytes(),
                                              filter_nearest=False)
             self.texels = self.group.buffer(layout.texel_uv().tobytes())
             self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
@@ -243,17 +244,18 @@ class SpriteRenderer:
         buffer = self.group.buffer(np.concatenate(columns, 1).astype("f4").tobytes())
         vao = self.group.vertex_array(program, [(buffer, layout, *names)])
         texture = None
+        state = ProgramValues(self.ctx, program)  # meshes of one kind share a program
         if mesh.texture is not None:
             h, w = mesh.texture.shape[:2]
             texture = self.group.texture((w, h), "rgba8", data=mesh.texture[::-1].tobytes(),
                                          filter_nearest=False)
-            program["u_texture"].value = 0
-        program["u_light"].value = tuple(float(v) for v in light)
-        program["u_colour"].value = tuple(float(v) for v in mesh.colour)
+            state.set("u_texture", 0)
+        state.set("u_light", tuple(float(v) for v in light))
+        state.set("u_colour", tuple(float(v) for v in mesh.colour))
         if mesh.colour2 is not None:
-            program["u_colour2"].value = tuple(float(v) for v in mesh.colour2)
-            program["u_checker"].value = float(mesh.checker)
-        return program, vao, texture
+            state.set("u_colour2", tuple(float(v) for v in mesh.colour2))
+            state.set("u_checker", float(mesh.checker))
+        return state, vao, texture
 
     def describe(self):
         w, h = self.size
@@ -268,16 +270,16 @@ class SpriteRenderer:
         view_projection = camera.uniform(aspect)
         with self.ctx.scope(self.framebuffer, depth_test=True):
             self.framebuffer.clear(*self.background, 1.0, depth=1.0)
-            for program, vao, texture in self.meshes:
+            for state, vao, texture in self.meshes:
                 if texture is not None:
                     texture.use(0)
-                program["u_view_projection"].value = view_projection
+                state.set("u_view_projection", view_projection)
                 vao.render(moderngl.TRIANGLES)
         for name, (_, q, part, _) in self.interface.samplers.items():
             buffers[q].fronts[part].use(self.units[name])
         self.sprite.use(self.sprite_unit)
-        self.program["u_view_projection"].value = view_projection
-        self.program["u_eye"].value = tuple(float(v) for v in camera.eye)
+        self.state.set("u_view_projection", view_projection)
+        self.state.set("u_eye", tuple(float(v) for v in camera.eye))
         with self.ctx.scope(self.framebuffer, blend=self.blend, point_size=True, depth_test=True,
                             depth_write=False, sprites=True):
             self.vao.render(moderngl.POINTS)

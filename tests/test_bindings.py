@@ -195,3 +195,47 @@ def test_pipeline_takes_the_scene_defaults_resolved_once(gl):
                   rounding="nearest") as pipeline:
         assert (pipeline.renderer.point_size, pipeline.sim.count, pipeline.steps,
                 pipeline.sim.rounding) == (3.0, 64, 0, "nearest")
+
+
+def test_simulations_sharing_a_program_keep_their_own_uniforms(gl):
+    """The context compiles a program once for every user with the same sources; uniform values
+    live in the program, so each user's must be set again when another set them last."""
+    a = Simulation(gl, drift_graph(u_delta=(0.01, 0.0)), 16)
+    b = Simulation(gl, drift_graph(u_delta=(0.03, 0.0)), 4096)  # same program, other values
+    try:
+        assert a.draws[0].command.program is b.draws[0].command.program
+        for sim in (a, b):
+            sim.upload("position", np.zeros((sim.count, 2)))
+        for _ in range(10):
+            a.step()
+            b.step()
+        moved_a, moved_b = a.download("position")[:, 0].mean(), b.download("position")[:, 0].mean()
+    finally:
+        a.release()
+        b.release()
+    assert abs(moved_a - 0.1) < 1e-3 and abs(moved_b - 0.3) < 1e-3, (moved_a, moved_b)
+
+
+def test_meshes_sharing_a_program_keep_their_colours(gl):
+    from es2particles.camera import Camera
+    from es2particles.scenes import Fountain
+    from es2particles.sprites import SpriteRenderer, box
+
+    scene = Fountain()
+    meshes = [box((-1.0, 1.0, 0.0), (0.4, 0.4, 0.4), colour=(1.0, 0.0, 0.0)),
+              box((1.0, 1.0, 0.0), (0.4, 0.4, 0.4), colour=(0.0, 0.0, 1.0))]
+    camera = Camera(eye=(0.0, 1.0, 6.0), target=(0.0, 1.0, 0.0))
+    with Simulation(gl, scene.graph(), 1) as sim:
+        sim.upload("life", np.array([[0.0, 0.0]]))  # dead: not drawn
+        renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
+                                  sim.layout, (128, 128), sim.fmt, meshes, light=(0, 1, 6),
+                                  background=(0, 0, 0))
+        try:
+            renderer.draw(sim.buffers, camera)
+            image = renderer.read().astype(int)
+        finally:
+            renderer.release()
+    (lx, ly), (rx, ry) = np.round(camera.project(np.array([[-1.0, 1, 0.4], [1.0, 1, 0.4]]),
+                                                 (128, 128))[0]).astype(int)
+    assert image[ly, lx, 0] > 100 and image[ly, lx, 2] < 20, image[ly, lx]
+    assert image[ry, rx, 2] > 100 and image[ry, rx, 0] < 20, image[ry, rx]

@@ -70,10 +70,10 @@ def sprite_frame(gl, positions, camera, meshes=(), size=(256, 256), **options):
     with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
         sim.upload("position", positions)
         sim.upload("life", np.stack([np.zeros(n), np.full(n, 2.4)], 1))
+        options = {"sprite": "disc", **options}
         renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
-                                  sim.layout, size, sim.fmt, meshes, sprite="disc",
-                                  size_spread=0.0, tint=(1, 1, 1, 0), opacity=1.0,
-                                  background=(0, 0, 0), **options)
+                                  sim.layout, size, sim.fmt, meshes, size_spread=0.0,
+                                  tint=(1, 1, 1, 0), opacity=1.0, background=(0, 0, 0), **options)
         try:
             renderer.draw(sim.buffers, camera)
             return renderer.read()
@@ -239,3 +239,18 @@ def test_emitter_table_points_directions_and_rates(gl):
     side = v[new][second] / np.linalg.norm(v[new][second], axis=1, keepdims=True)
     # along the direction by the up speed (5-7), across it by 0.6-1.4: within ~16 degrees
     assert up[:, 1].min() > 0.95 and side[:, 0].min() > 0.95
+
+
+def test_a_png_sprite_is_drawn_the_right_way_up(gl, tmp_path):
+    from PIL import Image
+
+    pixels = np.zeros((32, 32, 4), np.uint8)
+    pixels[:16] = (255, 0, 0, 255)  # top half red
+    pixels[16:] = (0, 0, 255, 255)  # bottom half blue
+    Image.fromarray(pixels).save(tmp_path / "half.png")
+    image = sprite_frame(gl, np.array([[0.0, 1.0, 0.0]]), CAMERA, point_size=160.0,
+                         attenuation=(1, 0, 0), sprite=str(tmp_path / "half.png"))
+    centre = np.round(CAMERA.project(np.array([[0.0, 1.0, 0.0]]), (256, 256))[0][0]).astype(int)
+    above, below = image[centre[1] - 8, centre[0]], image[centre[1] + 8, centre[0]]
+    assert above[0] > 200 and above[2] < 50, above
+    assert below[2] > 200 and below[0] < 50, below

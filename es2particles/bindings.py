@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ParameterError, ShaderError
+from .errors import GraphError, ParameterError, ShaderError
 from .shaders import GENERATED
 
 GLSL_TYPES = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -78,12 +78,23 @@ class Interface:
     fixed: dict = field(default_factory=dict)
     writes: tuple = None
 
+    owners: dict = field(default_factory=dict)  # generated name -> what declared it
+
+    def declare(self, line, name, what):
+        """Add a declaration line; a name declared twice (a texture and a quantity both ``pos``,
+        a quantity ``pos_1`` beside the second part of ``pos``, a uniform named like a range)
+        is an error naming both."""
+        if name in self.owners:
+            raise GraphError(f"{name} would be declared twice, for {self.owners[name]} and for "
+                             f"{what}: rename one of them")
+        self.owners[name] = what
+        self.lines.append(line)
+
     @property
     def names(self):
-        """Every name the generated lines declare."""
-        declared = re.findall(r"^(?:uniform|varying|attribute)\s+\w+\s+(\w+)", "\n".join(self.lines),
-                              re.M)
-        return set(declared)
+        """Every name the generated lines declare (u_step is lib/state.glsl's: it counts for
+        clashes, in ``owners``, but the library declares it)."""
+        return (set(self.owners) | {"v_uv", "u_state_size", "u_count"}) - {"u_step"}
 
     @property
     def text(self):
@@ -91,8 +102,10 @@ class Interface:
 
 
 def _ranges(out, quantity):
-    if f"uniform vec4 u_{quantity.name}_lo;" not in out.lines:
-        out.lines += [f"uniform vec4 u_{quantity.name}_lo;", f"uniform vec4 u_{quantity.name}_span;"]
+    q = quantity.name
+    if f"u_{q}_lo" not in out.owners:
+        out.declare(f"uniform vec4 u_{q}_lo;", f"u_{q}_lo", f"the range of quantity {q!r}")
+        out.declare(f"uniform vec4 u_{q}_span;", f"u_{q}_span", f"the range of quantity {q!r}")
         out.fixed.update(quantity.uniforms())
 
 
@@ -102,7 +115,7 @@ def _reader(out, quantity, fmt, this_step):
     ret = GLSL_TYPES[c]
     samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
     for part, sampler in enumerate(samplers):
-        out.lines.append(f"uniform sampler2D {sampler};")
+        out.declare(f"uniform sampler2D {sampler};", sampler, f"part {part + 1} of quantity {q!r}")
         out.samplers[sampler] = ("quantity", q, part, this_step)
     if fmt == "rgba8":
         decoded = [f"state_decode(texture2D({s}, uv), u_{q}_lo.{axes}, u_{q}_span.{axes})"
@@ -138,23 +151,26 @@ def _own_uniforms(out, uniforms):
         if not re.fullmatch(r"[A-Za-z_]\w*", str(name)):
             raise ParameterError(f"uniform name {name!r} is not a GLSL identifier")
         kind = glsl_type(name, value)
-        out.lines.append(f"uniform {kind[0]} {name}{kind[1]};")
+        out.declare(f"uniform {kind[0]} {name}{kind[1]};", name, f"the uniform {name!r}")
         out.uniforms[name] = kind
 
 
 PRELUDE = ["precision highp float;", "precision highp sampler2D;", '#include "lib/state.glsl"',
            "uniform vec2 u_state_size;", "uniform float u_count;"]
+BUILT_IN = {"u_state_size": "the built-in u_state_size", "u_count": "the built-in u_count",
+            "u_step": "the built-in u_step (lib/state.glsl)"}
 
 
 def pass_interface(spec, quantities, fmt, part=0):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.graph.Pass`)."""
-    out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"])
+    out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
+                    owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     for name in spec.reads:
         _reader(out, quantities[name], fmt, this_step=False)
     for name in spec.reads_new:
         _reader(out, quantities[name], fmt, this_step=True)
     for name in spec.textures:
-        out.lines.append(f"uniform sampler2D u_{name};")
+        out.declare(f"uniform sampler2D u_{name};", f"u_{name}", f"texture {name!r}")
         out.samplers[f"u_{name}"] = ("texture", name)
     _own_uniforms(out, spec.uniforms)
     _writer(out, quantities[spec.writes], fmt, part)
@@ -163,40 +179,75 @@ def pass_interface(spec, quantities, fmt, part=0):
 
 def stage_interface(reads, quantities, fmt, uniforms=None):
     """The interface of a vertex stage that reads quantities at a texel (a renderer)."""
-    out = Interface(lines=list(PRELUDE))
+    out = Interface(lines=list(PRELUDE), owners=dict(BUILT_IN))
     for name in reads:
         _reader(out, quantities[name], fmt, this_step=False)
     _own_uniforms(out, uniforms or {})
     return out
 
 
-_DECLARATION = re.compile(r"^\s*(?:uniform|varying|attribute)\s+(?:(?:lowp|mediump|highp)\s+)?\w+"
+_COMMENTS = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
+DECLARATIONS = re.compile(r"\b(uniform|varying|attribute)\s+(?:(?:lowp|mediump|highp)\s+)?(\w+)"
                           r"\s+([^;]+);")
-_COMMENT = re.compile(r"//.*$")
 
 
-def check_source(source, interface, stage):
-    """Raise :class:`ShaderError` where the shader declares a name the interface declares (GLSL
-    would say only 'redeclaration'), or, for a pass, never calls its ``write_<q>()``."""
-    calls_write = interface.writes is None
-    write = (re.compile(rf"\bwrite(_{interface.writes[0]})?\s*\(") if interface.writes
-             else None)
-    generated = interface.names
-    for line, (file, number) in zip(source.text.splitlines(), source.origins):
-        if file == GENERATED:
-            continue
-        code = _COMMENT.sub("", line)
-        match = _DECLARATION.match(code)
-        if match:
-            for name in (n.strip().split("[")[0] for n in match.group(1).split(",")):
-                if name in generated:
-                    raise ShaderError(
-                        f"{file}:{number}: {stage} declares {name!r}, which the graph declares "
-                        f"for it from the pass's declaration; remove this line\n    {number:4d} | "
-                        f"{line.strip()}")
-        if write is not None and write.search(code):
-            calls_write = True
-    if not calls_write:
-        q = interface.writes[0]
+def strip_comments(text):
+    """``text`` without comments, each replaced by as many line breaks as it held (line numbers
+    stay)."""
+    return _COMMENTS.sub(lambda m: "\n" * m.group(0).count("\n"), text)
+
+
+def declared_names(text):
+    """(kind, type, name) of every uniform/varying/attribute declared in ``text`` (comments
+    stripped first; several per statement and statements across lines included)."""
+    out = []
+    for match in DECLARATIONS.finditer(strip_comments(text)):
+        for name in match.group(3).split(","):
+            out.append((match.group(1), match.group(2), name.strip().split("[")[0].strip()))
+    return out
+
+
+def check_writes(source, interface, stage):
+    """Raise :class:`ShaderError` if a pass's shader never names its ``write_<q>`` (or
+    ``write``): a pass must write the quantity it declares. A call through a macro counts."""
+    if interface.writes is None:
+        return
+    q = interface.writes[0]
+    own = "\n".join(line for line, (file, _) in zip(strip_comments(source.text).split("\n"),
+                                                      source.origins) if file != GENERATED)
+    if not re.search(rf"\bwrite(_{q})?\b", own):
         raise ShaderError(f"{stage} never calls write_{q}(value): a pass must write the "
                           f"quantity it declares (writes={q!r})")
+
+
+def explain_redeclaration(source, interface, stage):
+    """After a failed compile: the clear message if the shader declares a name the interface
+    declares for it (GLSL says only 'redeclaration'), else None. Run only then, so a declaration
+    in an inactive #if branch is never taken for one."""
+    generated = interface.names
+    clean = strip_comments(source.text)
+    for match in DECLARATIONS.finditer(clean):
+        line_number = clean.count("\n", 0, match.start()) + 1
+        file, number = source.origin(line_number)
+        if file == GENERATED:
+            continue
+        for name in (n.strip().split("[")[0].strip() for n in match.group(3).split(",")):
+            if name in generated:
+                text = source.text.splitlines()[line_number - 1].strip()
+                return (f"{file}:{number}: {stage} declares {name!r}, which the graph declares "
+                        f"for it from the pass's declaration; remove this line\n    "
+                        f"{number:4d} | {text}")
+    return None
+
+
+def compile_checked(compile, source, interface, stage):
+    """``compile()`` after the write check; a failed compile caused by redeclaring a generated
+    name is reported as such."""
+    check_writes(source, interface, stage)
+    try:
+        return compile()
+    except ShaderError:
+        message = explain_redeclaration(source, interface, stage)
+        if message is None:
+            raise
+        raise ShaderError(message) from None

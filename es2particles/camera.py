@@ -46,6 +46,9 @@ class Camera:
         check_range("camera fov", self.fov, 1.0, 179.0)
         check_range("camera near", self.near, 1e-6, self.far)
         check_range("camera far", self.far, self.near, 1e9)
+        if not self.far > self.near:
+            raise ParameterError(f"camera far must be greater than near, got near {self.near} "
+                                 f"and far {self.far}")
         if self.ortho is not None:
             check_range("camera ortho half-height", self.ortho, 1e-6, 1e9)
         forward = _unit(np.subtract(self.target, self.eye), "target - eye")

@@ -16,7 +16,7 @@ import re
 
 import moderngl
 
-from .bindings import check_source
+from .bindings import compile_checked, declared_names, strip_comments
 from .context import ProgramValues
 from .errors import ParameterError
 from .shaders import GENERATED, expand
@@ -38,7 +38,7 @@ class FullscreenCommand:
     defines : mapping, optional
     interface : bindings.Interface, optional
         The generated interface of a pass, placed before the shader's own lines and checked
-        against them (``bindings.check_source``).
+        against them (``bindings.compile_checked``).
 
     A uniform is given by name: it must be declared (by the shader or the interface) and
     referenced by the shader's code, else the call is an error. Whether the driver keeps it
@@ -50,11 +50,14 @@ class FullscreenCommand:
         self.ctx, self.stage, self.fragment = group.ctx, stage, fragment
         prelude = interface.lines if interface is not None else None
         source = expand(fragment, defines, prelude)
-        if interface is not None:
-            check_source(source, interface, self.where())
         self.declared, self.referenced = _names(source)
-        self.program = self.ctx.program("lib/fullscreen.vert", fragment, defines,
-                                        fragment_prelude=prelude)
+
+        def compile():
+            return self.ctx.program("lib/fullscreen.vert", fragment, defines,
+                                    fragment_prelude=prelude)
+
+        self.program = (compile_checked(compile, source, interface, self.where())
+                        if interface is not None else compile())
         self.vao = group.fullscreen(self.program)
         members = {name: self.program[name] for name in self.program}
         self.samplers = sorted(name for name, m in members.items()
@@ -125,20 +128,17 @@ class FullscreenCommand:
             self.vao.render(moderngl.TRIANGLES)
 
 
-_UNIFORM = re.compile(r"^\s*uniform\s+(?:(?:lowp|mediump|highp)\s+)?(\w+)\s+([^;]+);")
-_COMMENTS = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
-
-
 def _names(source):
-    """(uniform name -> type declared anywhere, identifiers used by the non-generated code)."""
-    declared, referenced = {}, set()
-    for line, (file, _) in zip(source.text.splitlines(), source.origins):
-        code = _COMMENTS.sub("", line)
-        match = _UNIFORM.match(code)
-        if match:
-            for name in match.group(2).split(","):
-                declared[name.strip().split("[")[0].strip()] = match.group(1)
-            continue
+    """(uniform name -> type declared anywhere, identifiers the non-generated code uses outside
+    declarations). Comments are stripped across lines; several declarations per statement and
+    statements across lines count."""
+    declared = {name: glsl_type for kind, glsl_type, name in declared_names(source.text)
+                if kind == "uniform"}
+    code = strip_comments(source.text)
+    code = re.sub(r"\b(?:uniform|varying|attribute)\b[^;]*;",
+                  lambda m: "\n" * m.group(0).count("\n"), code)
+    referenced = set()
+    for line, (file, _) in zip(code.split("\n"), source.origins):
         if file != GENERATED:
-            referenced.update(re.findall(r"[A-Za-z_]\w*", code))
+            referenced.update(re.findall(r"[A-Za-z_]\w*", line))
     return declared, referenced

@@ -9,7 +9,7 @@ the ``count`` particles are in the buffer: spare texels are never drawn.
 import moderngl
 import numpy as np
 
-from .bindings import check_source, stage_interface
+from .bindings import compile_checked, stage_interface
 from .context import ProgramValues, bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
 from .graph import _bytes
@@ -99,12 +99,13 @@ class PointRenderer:
             defines["AGE_FADE"] = None
         uniforms = {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": self.point_size}
         self.interface = stage_interface(self.reads, quantities, state_format, uniforms)
-        check_source(expand("points.vert", defines, self.interface.lines), self.interface,
-                     "the point renderer (points.vert)")
         self.group = ctx.group()
         try:
-            self.program = ctx.program("points.vert", "points.frag", defines,
-                                       vertex_prelude=self.interface.lines)
+            self.program = compile_checked(
+                lambda: ctx.program("points.vert", "points.frag", defines,
+                                    vertex_prelude=self.interface.lines),
+                expand("points.vert", defines, self.interface.lines), self.interface,
+                "the point renderer (points.vert)")
             self.state = ProgramValues(ctx, self.program)  # the program may be shared
             self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
             for name, value in {**self.units, **self.interface.fixed, **uniforms}.items():

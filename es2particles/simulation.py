@@ -197,7 +197,9 @@ class Simulation:
         were clamped on write (a value is clamped, never wrapped)."""
         values = self.download(name)
         q = self.buffers[name].quantity
-        return [int(np.count_nonzero((values[:, k] <= q.lo[k]) | (values[:, k] >= q.hi[k])))
+        # the edges as a decode gives them: lo and lo + span in float32
+        lo, hi = q.lo32.astype(np.float64), (q.lo32 + q.span32).astype(np.float64)
+        return [int(np.count_nonzero((values[:, k] <= lo[k]) | (values[:, k] >= hi[k])))
                 for k in range(q.components)]
 
     def step(self):

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from .bindings import check_source, stage_interface
+from .bindings import compile_checked, stage_interface
 from .context import ProgramValues
 from .errors import CapabilityError, ParameterError, check_range
 from .shaders import expand
@@ -201,13 +201,14 @@ class SpriteRenderer:
         uniforms = {"u_eye": (0.0, 0.0, 1.0), "u_size": (self.pixel_size, size_spread, lo, hi),
                     "u_attenuation": (a, b, c), "u_fade": float(fade)}
         self.interface = stage_interface(self.reads, quantities, state_format, uniforms)
-        check_source(expand("sprites/sprite.vert", {}, self.interface.lines), self.interface,
-                     "the sprite renderer (sprites/sprite.vert)")
         texture = load_sprite(sprite)
         self.group = ctx.group()
         try:
-            self.program = ctx.program("sprites/sprite.vert", "sprites/sprite.frag",
-                                       vertex_prelude=self.interface.lines)
+            self.program = compile_checked(
+                lambda: ctx.program("sprites/sprite.vert", "sprites/sprite.frag",
+                                    vertex_prelude=self.interface.lines),
+                expand("sprites/sprite.vert", {}, self.interface.lines), self.interface,
+                "the sprite renderer (sprites/sprite.vert)")
             self.state = ProgramValues(ctx, self.program)  # the program may be shared
             self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
             self.sprite_unit = len(self.units)

@@ -239,3 +239,40 @@ def test_meshes_sharing_a_program_keep_their_colours(gl):
                                                  (128, 128))[0]).astype(int)
     assert image[ly, lx, 0] > 100 and image[ly, lx, 2] < 20, image[ly, lx]
     assert image[ry, rx, 2] > 100 and image[ry, rx, 0] < 20, image[ry, rx]
+
+
+def test_the_checks_never_reject_a_valid_shader(gl, tmp_path):
+    """Declarations in comments or inactive branches, several per statement or across lines,
+    and a write through a macro are all valid GLSL and must pass."""
+    g = user_pass(tmp_path, """/* an old version:
+uniform vec2 u_delta;
+*/
+#if 0
+uniform sampler2D u_position;
+#endif
+uniform float u_gain; uniform float u_bias;
+uniform vec2 u_a,
+             u_b;
+#define OUT write_position
+void main() { OUT(read_position(v_uv) * u_gain + u_bias + u_a + u_b); }""", reads=["position"])
+    # user_pass's graph declares no uniforms: this shader declares its own four
+    with Simulation(gl, g, 16, outputs=["position"]) as sim:
+        command = sim.draws[0].command
+        for name in ("u_gain", "u_bias", "u_a", "u_b"):
+            command.set(name, 1.0 if name in ("u_gain", "u_bias") else (0.0, 0.0))
+        sim.step()
+
+
+def test_clashing_generated_names_are_an_error_naming_both():
+    g = PassGraph()
+    g.quantity("pos", -1, 1, components=3)
+    g.quantity("pos_1", -1, 1)
+    g.add("p", "x.frag", writes="pos", reads=["pos", "pos_1"])
+    with pytest.raises(GraphError, match="u_pos_1 would be declared twice, for part 2 of quantity "
+                                         "'pos' and for part 1 of quantity 'pos_1'"):
+        pass_interface(g.passes[0], g.quantities, "rgba8")
+    g = PassGraph()
+    g.quantity("position", -1, 1)
+    g.add("p", "x.frag", writes="position", uniforms={"u_step": 1.0})
+    with pytest.raises(GraphError, match="u_step would be declared twice"):
+        pass_interface(g.passes[0], g.quantities, "rgba8")

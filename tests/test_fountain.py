@@ -254,3 +254,25 @@ def test_a_png_sprite_is_drawn_the_right_way_up(gl, tmp_path):
     above, below = image[centre[1] - 8, centre[0]], image[centre[1] + 8, centre[0]]
     assert above[0] > 200 and above[2] < 50, above
     assert below[2] > 200 and below[0] < 50, below
+
+
+def test_particles_leaving_the_position_range_are_re_emitted_not_stuck(gl):
+    """An emitter near the floor's edge: particles crossing the range's side (x = 6) would be
+    clamped onto an invisible wall; they die and are re-emitted instead."""
+    scene = Fountain(FountainPhysics(emitters=((5.5, 0.0, 0.0, 1.0, 1.0, 0.0),)))
+    with Simulation(gl, scene.graph(), 2048, fmt="rgba32f") as sim:
+        scene.initialise(sim, np.random.default_rng(0))
+        stuck = 0
+        for _ in range(120):
+            sim.step()
+            x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
+            living = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+            stuck = max(stuck, int(np.count_nonzero(living & (x[:, 0] >= 6.0) & (v[:, 0] > 0))))
+    assert stuck == 0
+
+
+def test_camera_refuses_a_zero_depth_range():
+    from es2particles import ParameterError
+
+    with pytest.raises(ParameterError, match="far must be greater than near"):
+        Camera(near=1.0, far=1.0)

@@ -164,3 +164,14 @@ def test_fill_uniform_rejects_a_reversed_rectangle(gl):
             sim.fill_uniform("position", (0.5, 0.5), (0.25, 1.0), np.random.default_rng(0))
         with pytest.raises(ParameterError, match="not in this simulation"):
             sim.fill_uniform("velocity", (0, 0), (1, 1), np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("fmt", ["rgba8", "rgba32f"])
+def test_clamped_counts_values_on_edges_that_are_not_exact_in_float32(gl, fmt):
+    g = PassGraph()
+    g.quantity("position", (0.1, -0.3), (0.7, 0.7))
+    g.add("add", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms={"u_delta": (0.0, 0.0)})
+    with Simulation(gl, g, 4, fmt=fmt) as sim:
+        sim.upload("position", np.array([[-5.0, 5.0], [0.4, 0.2], [9.0, -9.0], [0.2, 0.1]]))
+        assert sim.clamped("position") == [2, 2]

@@ -74,6 +74,13 @@ Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
         float gain = (kh < 1e-3) ? u_dt * (1.0 - 0.5 * kh) : (1.0 - decay) / u_drag;
         p.v = clamp(p.v * decay + u_gravity * gain, -u_max_speed, u_max_speed);
         p.x += p.v * u_dt;
+        // Out of the position range (beyond the floor's edge, above the top) a write would clamp
+        // it onto an invisible wall: it dies and is re-emitted, as through the floor.
+        vec3 hi = u_position_lo.xyz + u_position_span.xyz;
+        if (p.x.x < u_position_lo.x || p.x.z < u_position_lo.z || p.x.x > hi.x || p.x.y > hi.y
+                || p.x.z > hi.z) {
+            return emit(uv);
+        }
         if (p.x.y < 0.0) {
 #ifdef FLOOR_KILL
             return emit(uv);

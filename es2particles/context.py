@@ -147,15 +147,23 @@ class Context:
         self._gl_flush = None
         self._gl_calls = {}
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
+        Context._current = self  # a new context is current
         self._owned = []
         self._programs = {}
         self._caps = None
         self._fullscreen = None
 
+    _current = None  # the Context made current last (GL calls go to it, whoever makes them)
+
     def make_current(self):
-        """Make this context the thread's current one (needed when several are open: GL calls go
-        to whichever context was made current last)."""
-        self.mgl.__enter__()
+        """Make this context the thread's current one: GL calls go to whichever context was made
+        current last, so every object makes its own current before GL work (a no-op when it
+        already is). A released context raises :class:`ContextError`."""
+        if self.mgl is None:
+            raise ContextError("this context was released; open a new one with open_context()")
+        if Context._current is not self:
+            self.mgl.__enter__()
+            Context._current = self
 
     def flush(self):
         """glFlush: hand the queued GL work to the driver without waiting for it to finish.
@@ -211,6 +219,8 @@ class Context:
         if self.mgl is not None:
             self.mgl.release()
             self.mgl = None
+        if Context._current is self:
+            Context._current = None
 
     def __enter__(self):
         return self

@@ -5,6 +5,8 @@ catch one type. Messages name the parameter, file or capability at fault and, wh
 the allowed range.
 """
 
+import math
+
 
 class Es2ParticlesError(Exception):
     """Base class of every error raised by es2particles."""
@@ -36,12 +38,14 @@ def check_range(name, value, lo=None, hi=None, integer=False):
     Used at every public entry point so that bad input fails with the parameter's name and range
     instead of deep inside GL.
     """
-    import math
-
     kind = "an integer" if integer else "a number"
+    if isinstance(value, (bool, str, bytes)):  # True is 1 to Python, "3" a string to the caller
+        raise ParameterError(f"{name} must be {kind}, got {value!r}")
     try:
         number = int(value) if integer else float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):  # int(inf) overflows, int(nan) fails
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ParameterError(f"{name} must be finite, got {value!r}") from None
         raise ParameterError(f"{name} must be {kind}, got {value!r}") from None
     if integer and number != value:
         raise ParameterError(f"{name} must be {kind}, got {value!r}")

@@ -208,7 +208,7 @@ class PassGraph:
         """The :class:`Plan` computing ``outputs`` (default: every written quantity)."""
         if outputs is None:
             outputs = [p.writes for p in self.passes]
-        outputs = tuple(outputs)
+        outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)  # one name or several
         if not outputs:
             raise ParameterError("outputs must name at least one quantity")
         self._check()

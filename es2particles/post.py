@@ -83,6 +83,7 @@ class PostChain:
     def __init__(self, ctx, size, mean_density, exposure=1.0, gradient="inferno", bloom=Bloom(),
                  background=None):
         self.ctx, self.size = ctx, tuple(size)
+        ctx.make_current()
         exposure = check_range("exposure", exposure, 1e-3, 1e3)
         self.gradient, self.bloom = gradient, bloom
         ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
@@ -156,6 +157,7 @@ class PostChain:
 
     def apply(self, density):
         """Run the chain on the density texture; returns the final RGBA8 texture."""
+        self.ctx.make_current()
         image = self.tonemap.run(u_density=density, **self.inputs)
         if self.bloom is None:
             return image
@@ -167,6 +169,7 @@ class PostChain:
 
     def read(self, texture):
         """An RGBA8 texture as an (h, w, 3) uint8 image, top row first."""
+        self.ctx.make_current()
         w, h = texture.size
         pixels = np.frombuffer(texture.read(), dtype=np.uint8).reshape(h, w, 4)
         return pixels[::-1, :, :3].copy()

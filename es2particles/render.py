@@ -80,6 +80,7 @@ class PointRenderer:
         if "position" not in quantities or unknown:
             raise ParameterError(f"the point renderer reads position and optionally life, got "
                                  f"{list(quantities)}")
+        ctx.make_current()
         lo, hi = ctx.caps.point_size_range
         self.point_size = check_range("point_size", point_size, lo, hi)
         self.intensity = check_range("intensity", intensity, 0)
@@ -149,6 +150,7 @@ class PointRenderer:
     def draw(self, buffers):
         """Clear the target and draw every particle; ``buffers`` maps each read quantity to its
         StateBuffer."""
+        self.ctx.make_current()
         for name, (kind, q, part, _) in self.interface.samplers.items():
             buffers[q].fronts[part].use(self.units[name])
         self.state.current()

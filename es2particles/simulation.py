@@ -9,7 +9,7 @@ import numpy as np
 
 from .bindings import pass_interface, uniform_value
 from .command import FullscreenCommand
-from .errors import ParameterError, ShaderError
+from .errors import Es2ParticlesError, ParameterError, ShaderError, check_range
 from .state import Layout, StateBuffer
 
 FORMATS = ("rgba8", "rgba16f", "rgba32f")
@@ -112,8 +112,10 @@ class Simulation:
     """
 
     def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):
+        self.group = None
         if rounding not in ROUNDINGS:
             raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
+        ctx.make_current()
         self.ctx, self.rounding, self.graph = ctx, rounding, graph
         self.plan = graph.plan(outputs)
         self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
@@ -146,7 +148,14 @@ class Simulation:
     def count(self):
         return self.layout.count
 
+    def _use(self):
+        """Make this simulation's context current; a released simulation refuses."""
+        if self.group is None:
+            raise Es2ParticlesError("this Simulation was released; make a new one")
+        self.ctx.make_current()
+
     def _buffer(self, name):
+        self._use()
         if name not in self.buffers:
             raise ParameterError(f"quantity {name!r} is not in this simulation's plan "
                                  f"(has: {', '.join(self.buffers)})")
@@ -171,6 +180,7 @@ class Simulation:
     def set_uniform(self, name, value):
         """Set uniform ``name`` on every planned pass that declares it. The name must be declared
         by some pass of the graph (``uniforms=``); a pass the plan left out is skipped."""
+        self._use()
         known = self.graph.uniform_names()
         if name not in known:
             raise ParameterError(f"no pass of this graph declares a uniform {name!r} (declared: "
@@ -204,6 +214,7 @@ class Simulation:
 
     def step(self):
         """Run every planned draw once, then make this step's values the front ones."""
+        self._use()
         for draw in self.draws:
             draw.draw(self.steps_done)
         for buffer in self._swapped:
@@ -211,10 +222,8 @@ class Simulation:
         self.steps_done += 1
 
     def run(self, steps):
-        """Run ``steps`` steps."""
-        steps = int(steps)
-        if steps < 0:
-            raise ParameterError(f"steps must be >= 0, got {steps}")
+        """Run ``steps`` steps (a whole number >= 0)."""
+        steps = int(check_range("steps", steps, 0, None, integer=True))
         for _ in range(steps):
             self.step()
 
@@ -225,7 +234,12 @@ class Simulation:
     def release(self):
         """Release the state and scene textures (programs stay cached in the context); safe
         twice."""
+        if self.group is None:
+            return
+        if self.ctx.mgl is not None:
+            self.ctx.make_current()
         self.group.release()
+        self.group = None
         self.draws, self.buffers, self._swapped, self.textures = [], {}, [], {}
 
     def __enter__(self):

@@ -184,6 +184,7 @@ class SpriteRenderer:
                                  f"{ {q: v.components for q, v in quantities.items()} }")
         if blend not in BLENDS:
             raise ParameterError(f"blend must be one of {BLENDS}, got {blend!r}")
+        ctx.make_current()
         lo, hi = ctx.caps.point_size_range
         self.point_size = check_range("point_size", point_size, 0.0, 1e4)
         check_range("size_spread", size_spread, 0.0, 0.99)
@@ -267,6 +268,7 @@ class SpriteRenderer:
 
     def draw(self, buffers, camera):
         """Draw the meshes and the particles seen from ``camera``; returns the colour texture."""
+        self.ctx.make_current()
         aspect = self.size[0] / self.size[1]
         view_projection = camera.uniform(aspect)
         with self.ctx.scope(self.framebuffer, depth_test=True):
@@ -288,6 +290,7 @@ class SpriteRenderer:
 
     def read(self, texture=None):
         """The image as (h, w, 3) uint8, top row first."""
+        self.ctx.make_current()
         w, h = self.size
         pixels = np.frombuffer(self.image.read(), dtype=np.uint8).reshape(h, w, 4)
         return pixels[::-1, :, :3].copy()

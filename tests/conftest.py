@@ -24,7 +24,10 @@ def ctx():
 @pytest.fixture
 def gl(ctx):
     """The context, current, with no GL error allowed before or after the test."""
-    ctx.make_current()  # a test may have opened (and released) a context of its own
+    # A test may have opened (and released) a context of its own, perhaps a raw moderngl one
+    # that Context does not track: force the switch.
+    type(ctx)._current = None
+    ctx.make_current()
     assert ctx.mgl.error == "GL_NO_ERROR"
     yield ctx
     assert ctx.mgl.error == "GL_NO_ERROR"

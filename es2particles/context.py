@@ -190,6 +190,7 @@ class Context:
         """Release objects made through this context before the context itself goes."""
         import moderngl
 
+        self.make_current()  # GL names are per context: deleting them elsewhere deletes others
         if any(isinstance(obj, moderngl.Framebuffer) for obj in objects):
             # moderngl re-binds the last used framebuffer when it makes the next one; if that one
             # was deleted, GL answers INVALID_OPERATION. Park on the default framebuffer first.
@@ -212,6 +213,8 @@ class Context:
 
     def release(self):
         """Release every owned object and the context; safe to call twice."""
+        if self.mgl is not None:
+            self.make_current()  # its objects' names must be deleted in it, not in another
         while self._owned:
             self._owned.pop().release()
         self._programs.clear()
@@ -219,8 +222,9 @@ class Context:
         if self.mgl is not None:
             self.mgl.release()
             self.mgl = None
-        if Context._current is self:
-            Context._current = None
+        # Releasing a context may leave another (or none) current, whatever was before: the next
+        # make_current() must switch for real.
+        Context._current = None
 
     def __enter__(self):
         return self

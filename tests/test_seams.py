@@ -35,7 +35,13 @@ def test_each_simulation_runs_on_its_own_context(gl):
         b.release()
         a.release()
     finally:
-        other.release()
+        other.release()  # gl is current here: other must free its objects in itself
+    # Releasing a context deleted its GL names in whichever context was current, here gl's:
+    # a simulation made after it on gl then computed zeros.
+    with Simulation(gl, drift(0.01), 16) as after:
+        after.upload("position", np.zeros((16, 2)))
+        after.run(10)
+        assert abs(after.download("position")[:, 0].mean() - 0.1) < 1e-3
 
 
 def test_released_objects_refuse_with_one_clear_error(gl):

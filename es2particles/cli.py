@@ -62,13 +62,13 @@ def _report(args):
 
     from .context import open_context
     from .errors import ParameterError
+    from .output import check_folder
     from .report import run
 
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"--out {args.out!r} is a file; it must be a folder")
-    if not out.parent.exists():
-        raise ParameterError(f"--out: folder {str(out.parent)!r} does not exist")
+    check_folder(out, "--out")  # made, with any missing parents, when the report is written
     with open_context() as ctx:
         path = run(ctx, out, quick=args.quick)
     print(f"wrote {path}")

@@ -17,25 +17,43 @@ ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG"}
 
 
 def check_output(path, parameter, suffixes):
-    """Return ``path`` as a Path if it can be written with one of ``suffixes``, else raise."""
+    """Return ``path`` as a Path if it can be written with one of ``suffixes``, else raise.
+
+    Missing folders are fine: they are made when the file is written (after the work, so a
+    failure before it leaves nothing behind); the nearest folder that exists must be writable,
+    and nothing on the way may be a file."""
     if path is None:
         raise ParameterError(f"{parameter} is required")
     path = Path(path)
     if path.suffix.lower() not in suffixes:
         raise ParameterError(f"{parameter} must end in {', '.join(sorted(suffixes))}, got {str(path)!r}")
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir():
-        raise ParameterError(f"{parameter}: folder {str(folder)!r} does not exist")
-    if not os.access(folder, os.W_OK) or (path.exists() and not os.access(path, os.W_OK)):
+    check_folder(path.parent if str(path.parent) else Path("."), parameter)
+    if path.exists() and not os.access(path, os.W_OK):
         raise ParameterError(f"{parameter}: {str(path)!r} is not writable")
     if path.is_dir():
         raise ParameterError(f"{parameter}: {str(path)!r} is a folder, not a file")
     return path
 
 
+def check_folder(folder, parameter):
+    """Raise unless ``folder`` exists as a writable folder, or can be made in its nearest
+    existing ancestor (which must be a writable folder)."""
+    folder = Path(folder)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise ParameterError(f"{parameter}: {str(existing)!r} is a file, not a folder")
+    if not os.access(existing, os.W_OK):
+        raise ParameterError(f"{parameter}: folder {str(existing)!r} is not writable")
+    return folder
+
+
 def _atomic(path, write):
-    """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure."""
+    """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure.
+    Missing folders on the way are made first."""
     path = Path(path)
+    (path.parent or Path(".")).mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
     os.close(fd)
     try:

@@ -49,6 +49,23 @@ def find_shader(name, near=None):
     raise ShaderError(f"shader file {name!r} not found (looked at: {looked})")
 
 
+def find_include(name, near=None):
+    """Path of included file ``name``: a relative path inside the including file's folder or the
+    library (never absolute, never through '..', and a link may not lead out), so an include reads
+    only shader folders."""
+    relative = Path(name)
+    if relative.is_absolute() or ".." in relative.parts or not relative.parts:
+        raise ShaderError(f"#include {name!r}: includes are relative paths inside the library or "
+                          "the including file's folder (no absolute path, no '..')")
+    folders = ([Path(near).resolve().parent] if near is not None else []) + [shader_root()]
+    for folder in folders:
+        candidate = (folder / relative).resolve()
+        if candidate.is_file() and folder in candidate.parents:
+            return candidate
+    looked = ", ".join(str(folder / relative) for folder in folders)
+    raise ShaderError(f"shader file {name!r} not found (looked at: {looked})")
+
+
 @dataclass(frozen=True)
 class ExpandedSource:
     """Expanded GLSL text and, for each of its lines, the (file, line) it came from."""
@@ -99,7 +116,7 @@ def _paste(path, lines, start, out, seen, depth):
             raise ShaderError(f"{path}:{number}: includes nest deeper than {MAX_INCLUDE_DEPTH}")
         try:
             # Generated lines include library files only: nothing next to the user's file.
-            child = find_shader(include.group(1), near=None if path == GENERATED else path)
+            child = find_include(include.group(1), near=None if path == GENERATED else path)
         except ShaderError as error:
             raise ShaderError(f"{path}:{number}: {error}") from None
         if child in seen:  # included once: a second include of a file is a no-op

@@ -67,8 +67,12 @@ def test_bad_input_is_a_clear_error_and_leaves_no_file(tmp_path, capsys, argumen
 
 
 def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
-    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "missing" / "x.png")]) == 2
-    assert "does not exist" in capsys.readouterr().err
+    # a missing folder is made, when the image is written
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "new" / "deeper" / "x.png")]) == 0
+    assert (tmp_path / "new" / "deeper" / "x.png").is_file()
+    (tmp_path / "plain").write_text("a file")
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "plain" / "x.png")]) == 2
+    assert "is a file, not a folder" in capsys.readouterr().err
     assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.jpg")]) == 2
     assert "--out must end in .png" in capsys.readouterr().err
     locked = tmp_path / "locked"

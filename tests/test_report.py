@@ -26,9 +26,11 @@ def test_projectile_reference_matches_a_fine_numpy_integration():
     assert np.abs(measure.projectile(x0, v0, t, g, k) - x).max() < 1e-5
 
 
-def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path, capsys):
-    out = tmp_path / "report"
-    assert main(["report", "--quick", "--out", str(out)]) == 0
+def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path, capsys, monkeypatch):
+    # In an empty folder, with the default --out (out/report): the folders are made.
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "out" / "report"
+    assert main(["report", "--quick"]) == 0
     text = (out / "REPORT.md").read_text()
     for heading in ("## Main finding", "## de Jong: error against run time",
                     "## Collision: error against run time", "## Collision: error against time step",

@@ -155,3 +155,20 @@ def test_shaders_are_found_from_any_working_directory(tmp_path):
                             text=True)
     assert result.returncode == 0, result.stderr
     assert Path(result.stdout.strip(), "lib", "pack.glsl").is_file()
+
+
+@pytest.mark.parametrize("target", ["/etc/passwd", "../../../etc/passwd", "lib/../../x.glsl"])
+def test_includes_stay_inside_the_shader_folders(tmp_path, target):
+    main = tmp_path / "main.frag"
+    main.write_text(f'#version 100\n#include "{target}"\nvoid main() {{}}\n')
+    with pytest.raises(ShaderError, match="includes are relative paths") as info:
+        expand(str(main))
+    assert "root:" not in str(info.value)  # nothing of the file is echoed
+
+
+def test_an_include_next_to_the_user_file_still_works(tmp_path):
+    (tmp_path / "helpers.glsl").write_text("float twice(float x) { return 2.0 * x; }\n")
+    main = tmp_path / "main.frag"
+    main.write_text('#version 100\n#include "helpers.glsl"\n#include "lib/pack.glsl"\nvoid main() {}\n')
+    text = expand(str(main)).text
+    assert "float twice(float x)" in text and "vec2 pack16(float x)" in text

@@ -29,6 +29,18 @@ def main(argv=None):
     except Es2ParticlesError as error:
         print(f"es2particles: error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:
+        if isinstance(error, BrokenPipeError):  # `| head` closed the pipe: nothing to say
+            sys.stderr.close()
+            return 0
+        # a full disk, a read-only place, a name too long: after the work, said in one line
+        where = f" {error.filename!r}" if error.filename else ""
+        print(f"es2particles: error: cannot write{where}: {error.strerror or error}",
+              file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("es2particles: interrupted", file=sys.stderr)
+        return 130
 
 
 # A value that starts with '-' and looks like a number (-inf, -nan, -1e3, -5x5) but not like one
@@ -113,7 +125,8 @@ def _add_common_arguments(parser, running):
     add("--point-size", type=float, default=None,
         help="point diameter in pixels (default: the scene's; 1 for the attractors, 2 for "
              "collision)")
-    add("--intensity", type=float, default=1.0, help="density each particle adds (default 1)")
+    add("--intensity", type=float, default=1.0,
+        help="density each particle adds, in [0, 1e6] (default 1)")
     add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
     add("--steps", type=int, default=None,
         help="simulation steps before the (first) frame (default: the scene's)")

@@ -16,8 +16,9 @@ from .errors import CapabilityError, ContextError
 from .shaders import compile_program
 
 INSTALL_HINT = (
-    "install a GL driver with EGL: on Debian/Ubuntu 'apt-get install libegl1 libgl1-mesa-dri "
-    "libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also works)"
+    "install a GL driver with EGL: on Debian/Ubuntu 'apt-get install libegl1 libgl1 "
+    "libgl1-mesa-dri libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also "
+    "works)"
 )
 # Formats the state may use: name -> moderngl dtype (four components).
 FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}

@@ -127,16 +127,13 @@ def load_mask(path, resolution):
     nearest-pixel resampling kept it in one cell of every four (or none at all)."""
     from PIL import Image
 
-    try:
-        with Image.open(path) as image:
-            if "A" in image.getbands():
-                values = np.asarray(image.getchannel("A"), dtype=np.float64) / 255
-                pixels = values >= 0.5
-            else:
-                values = np.asarray(image.convert("L"), dtype=np.float64) / 255
-                pixels = values < 0.5
-    except (OSError, ValueError) as error:
-        raise ParameterError(f"mask {str(path)!r} cannot be read as an image: {error}") from None
+    from .images import read_image
+
+    image = read_image(path, "mask", mode=None)
+    if "A" in image.getbands():
+        pixels = np.asarray(image.getchannel("A"), dtype=np.float64) / 255 >= 0.5
+    else:
+        pixels = np.asarray(image.convert("L"), dtype=np.float64) / 255 < 0.5
     coverage = Image.fromarray(pixels.astype(np.float32), mode="F").resize(resolution, Image.BOX)
     solid = np.asarray(coverage)[::-1] > 0
     if not solid.any():

@@ -29,11 +29,9 @@ def load_ramp(spec):
     if spec in BUILTIN:
         return _interpolate([ImageColor.getrgb(c) for c in BUILTIN[spec]])
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
-        try:
-            with Image.open(spec) as image:
-                row = np.asarray(image.convert("RGB"))[0].astype(np.float64)
-        except OSError as error:
-            raise ParameterError(f"gradient image {spec!r} cannot be read: {error}") from None
+        from .images import read_image
+
+        row = np.asarray(read_image(spec, "gradient", "RGB"))[0].astype(np.float64)
         if len(row) < 2:
             raise ParameterError(f"gradient image {spec!r} must be at least 2 pixels wide")
         return _interpolate(row)

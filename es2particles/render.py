@@ -83,7 +83,9 @@ class PointRenderer:
         ctx.make_current()
         lo, hi = ctx.caps.point_size_range
         self.point_size = check_range("point_size", point_size, lo, hi)
-        self.intensity = check_range("intensity", intensity, 0)
+        # Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour
+        # image with exit 0 (--intensity 1e39 did that).
+        self.intensity = check_range("intensity", intensity, 0, 1e6)
         x0, y0, x1, y1 = (float(v) for v in view)
         if not (x1 > x0 and y1 > y0):
             raise ParameterError(f"view must have x1 > x0 and y1 > y0, got {view}")

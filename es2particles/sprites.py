@@ -124,14 +124,10 @@ def load_sprite(spec):
     """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc`` or a PNG path."""
     if spec in SPRITES:
         return SPRITES[spec]()
-    from PIL import Image
+    from .images import read_image
 
-    try:
-        with Image.open(spec) as image:
-            return np.asarray(image.convert("RGBA"), dtype=np.uint8)
-    except (OSError, ValueError) as error:
-        raise ParameterError(f"sprite must be one of {sorted(SPRITES)} or a PNG file; "
-                             f"{spec!r}: {error}") from None
+    return np.asarray(read_image(spec, f"sprite (one of {sorted(SPRITES)} or an image)"),
+                      dtype=np.uint8)
 
 
 # --- the renderer -----------------------------------------------------------------------------

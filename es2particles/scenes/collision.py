@@ -181,6 +181,7 @@ class Collision(Scene):
     def from_args(cls, args):
         if args.lifetime[0] < 0 or args.lifetime[1] < 0:
             raise ParameterError(f"lifetime must be positive, got {tuple(args.lifetime)}")
+        check_range("gravity", args.gravity, -1e4, 1e4)  # before the sign turns: name what was typed
         physics = Physics(dt=args.dt, gravity=(0.0, -args.gravity), drag=args.drag,
                           sliding=args.sliding, bounce=args.bounce, lifetime=tuple(args.lifetime),
                           speed=tuple(args.speed))

@@ -1,0 +1,87 @@
+"""Hostile and careless input (issue 16's cases): images that are not what they claim, values
+that make nonsense, output that fails after the work, interrupted runs. One line, no traceback."""
+
+import os
+import struct
+import zlib
+
+import numpy as np
+import pytest
+
+from es2particles.cli import main
+
+SMALL = ["--particles", "256", "--size", "32x32", "--steps", "1"]
+
+
+def png_header_claiming(width, height):
+    """A tiny PNG whose header claims ``width`` x ``height`` pixels (and holds almost no data)."""
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(b"\0"))
+            + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("option, scene", [("--gradient", "dejong"), ("--shape", "collision")])
+def test_an_image_claiming_a_huge_size_is_refused_before_decoding(tmp_path, capsys, option, scene):
+    bomb = tmp_path / "bomb.png"
+    bomb.write_bytes(png_header_claiming(100000, 100000))
+    assert main(["run", scene, *SMALL, option, str(bomb), "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert "pixels" in err and err.count("\n") == 1 and "Traceback" not in err  # named, refused
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_as_an_image_is_refused_not_waited_on(tmp_path, capsys):
+    fifo = tmp_path / "ramp.png"
+    os.mkfifo(fifo)
+    assert main(["run", "dejong", *SMALL, "--gradient", str(fifo), "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert "is not a plain file" in capsys.readouterr().err
+
+
+def test_a_nonsense_intensity_is_refused(tmp_path, capsys):
+    assert main(["run", "dejong", *SMALL, "--intensity", "1e39", "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert "intensity must be in [0, 1000000.0]" in capsys.readouterr().err
+
+
+def test_gravity_errors_name_the_value_typed(tmp_path, capsys):
+    assert main(["run", "collision", *SMALL, "--gravity", "inf", "--out",
+                 str(tmp_path / "x.png")]) == 2
+    assert "gravity must be finite, got inf" in capsys.readouterr().err
+
+
+def test_a_write_that_fails_after_the_work_is_one_line(tmp_path, capsys, monkeypatch):
+    from es2particles import output
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device", str(tmp_path / "x.png"))
+
+    monkeypatch.setattr(output, "encode_png", full_disk)
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("es2particles: error: cannot write") and "No space left" in err
+    assert "Traceback" not in err and list(tmp_path.iterdir()) == []
+
+
+def test_an_interrupt_is_one_line_and_leaves_no_file(tmp_path, capsys, monkeypatch):
+    from es2particles import pipeline
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(pipeline.Pipeline, "warm_up", interrupted)
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 130
+    assert capsys.readouterr().err == "es2particles: interrupted\n"
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_progress_in_a_log_has_no_carriage_returns(capsys):
+    from es2particles.progress import progress
+
+    assert list(progress(range(50), 50, "frames")) == list(range(50))
+    err = capsys.readouterr().err  # pytest's capture is not a terminal
+    assert "\r" not in err and 2 <= err.count("\n") <= 11 and "frames: 50/50" in err

@@ -49,6 +49,11 @@ def check_folder(folder, parameter):
     return folder
 
 
+def write_atomic(path, write):
+    """Public name of the atomic writer: the report writes through it too."""
+    return _atomic(path, write)
+
+
 def _atomic(path, write):
     """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure.
     Missing folders on the way are made first."""
@@ -106,6 +111,10 @@ def save_image(pixels, path, compress_level=1):
     Deflate level 1 by default: ~17 ms at 1024x1024 against ~120 ms for pillow's default level 6;
     pass 9 for the smallest file.
     """
+    pixels = np.asarray(pixels)
+    if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
+        raise ParameterError(f"an image must be an (h, w, 3) array with h, w >= 1, got shape "
+                             f"{pixels.shape}")
     data = encode_png(pixels, compress_level)
     return _atomic(path, lambda tmp: Path(tmp).write_bytes(data))
 
@@ -114,6 +123,9 @@ def save_animation(frames, path, fps=30):
     """Write a list of (h, w, 3) uint8 frames as an animated WebP, GIF or PNG (APNG)."""
     from PIL import Image
 
+    frames = list(frames)
+    if not frames:
+        raise ParameterError("an animation needs at least one frame")
     images = [Image.fromarray(np.asarray(f, dtype=np.uint8), "RGB") for f in frames]
     fmt = ANIMATION_SUFFIXES[Path(path).suffix.lower()]
     options = {"save_all": True, "append_images": images[1:], "duration": int(round(1000 / fps)),

@@ -85,7 +85,7 @@ def expand(name, defines=None, prelude=None):
     flag), and the ``prelude`` lines (the interface ``bindings.py`` writes; they may include
     library files) between the defines and the file. Returns an :class:`ExpandedSource`."""
     path = find_shader(name)
-    lines = path.read_text().splitlines()
+    lines = _read(path).splitlines()
     first = next((i for i, line in enumerate(lines) if line.strip()), None)
     if first is None or not re.match(r"^\s*#\s*version\s+100\s*$", lines[first]):
         raise ShaderError(f"{path}:{(first or 0) + 1}: a shader must start with '#version 100' "
@@ -122,7 +122,17 @@ def _paste(path, lines, start, out, seen, depth):
         if child in seen:  # included once: a second include of a file is a no-op
             continue
         seen.add(child)
-        _paste(child, child.read_text().splitlines(), 0, out, seen, depth + 1)
+        _paste(child, _read(child).splitlines(), 0, out, seen, depth + 1)
+
+
+def _read(path):
+    """A shader file's text; GLSL ES 1.00 sources are ASCII, so anything undecodable is an error
+    naming the file."""
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise ShaderError(f"{path}: not a text file (byte {error.start} is not UTF-8); GLSL "
+                          "sources are text") from None
 
 
 def _glsl_literal(value):

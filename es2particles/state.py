@@ -198,7 +198,11 @@ class StateBuffer:
     def upload(self, values):
         """Write world values (count, components) into the fronts (clamped to the range)."""
         q = self.quantity
-        values = np.asarray(values, dtype=np.float64)
+        try:
+            values = np.asarray(values, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{q.name}: values must be numbers, shape ({self.layout.count}, "
+                                 f"{q.components}); got {type(values).__name__}") from None
         if values.ndim == 1 and q.components == 1:
             values = values[:, None]
         if values.shape != (self.layout.count, q.components):

@@ -85,3 +85,56 @@ def test_progress_in_a_log_has_no_carriage_returns(capsys):
     assert list(progress(range(50), 50, "frames")) == list(range(50))
     err = capsys.readouterr().err  # pytest's capture is not a terminal
     assert "\r" not in err and 2 <= err.count("\n") <= 11 and "frames: 50/50" in err
+
+
+def test_sigterm_during_an_animation_leaves_no_part_file(tmp_path):
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "a.webp"
+    process = subprocess.Popen([sys.executable, "-m", "es2particles", "run", "dejong",
+                                "--particles", "65536", "--size", "512x512", "--frames", "400",
+                                "--out", str(out)], stderr=subprocess.PIPE, text=True)
+    time.sleep(3.0)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_report_replaces_a_symlink_instead_of_writing_through_it(tmp_path):
+    from es2particles.output import write_atomic
+
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    (tmp_path / "report").mkdir()
+    (tmp_path / "report" / "REPORT.md").symlink_to(victim)
+    write_atomic(tmp_path / "report" / "REPORT.md", lambda tmp: open(tmp, "w").write("report"))
+    assert victim.read_text() == "keep me"
+    assert not (tmp_path / "report" / "REPORT.md").is_symlink()
+
+
+def test_library_seams_raise_named_errors(gl, tmp_path):
+    from es2particles import ParameterError, PassGraph, ShaderError, Simulation
+    from es2particles.output import save_animation, save_image
+    from es2particles.shaders import expand
+
+    binary = tmp_path / "bad.frag"
+    binary.write_bytes(b"#version 100\n\xff\xfe\xfd\n")
+    with pytest.raises(ShaderError, match="not a text file"):
+        expand(str(binary))
+    g = PassGraph()
+    g.quantity("position", -1, 1)
+    g.add("drift", "examples/drift.frag", writes="position", reads=["position"],
+          uniforms={"u_delta": (0.0, 0.0)})
+    with Simulation(gl, g, 4) as sim:
+        with pytest.raises(ParameterError, match="values must be numbers"):
+            sim.upload("position", [["a", "b"]] * 4)
+    with pytest.raises(ParameterError, match="h, w >= 1"):
+        save_image(np.zeros((0, 0, 3), np.uint8), tmp_path / "x.png")
+    with pytest.raises(ParameterError, match="at least one frame"):
+        save_animation([], tmp_path / "x.webp")
+    assert list(p.name for p in tmp_path.iterdir()) == ["bad.frag"]

@@ -24,9 +24,17 @@ def _finish(fig, ax, path, **labels):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path)
+    _save(fig, path)
     _figure().close(fig)
     return path
+
+
+def _save(fig, path):
+    """savefig through a random temporary name renamed onto ``path`` (a link there is
+    replaced, not written through)."""
+    from ..output import write_atomic
+
+    write_atomic(path, lambda tmp: fig.savefig(tmp, format="png"))
 
 
 LOG_FLOOR = 1e-12  # the bottom of the stiff chart's log axis: an exact 0 is drawn there
@@ -84,6 +92,6 @@ def stiff(curves, path):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path)
+    _save(fig, path)
     plt.close(fig)
     return path

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from . import charts, measure, stability
+from ..output import write_atomic
 from ..progress import progress
 
 QUICK = {"dejong_n": (10, 14, 16), "collision_n": (10, 12), "dt_k": range(4, 11),
@@ -184,11 +185,11 @@ def _write(ctx, out, quick, dejong_rows, collision_rows, dt_rows, cases, stiff_c
     lines += ["| " + " | ".join(str(cell).replace("|", "\\|") for cell in c.row()) + " |"
               for c in cases]
     lines += [""]
-    path = out / "REPORT.md"
-    tmp = out / ".REPORT.md.part"
-    tmp.write_text("\n".join(lines) + "\n")
-    os.replace(tmp, path)
-    return path
+    # A temporary file at a random name, renamed onto REPORT.md: a symlink there is replaced,
+    # never followed, and a failure leaves no part file (the fixed ".REPORT.md.part" could be
+    # a link pointing anywhere).
+    text = "\n".join(lines) + "\n"
+    return write_atomic(out / "REPORT.md", lambda tmp: Path(tmp).write_text(text))
 
 
 def _fitted_order(dt_rows):

@@ -46,6 +46,37 @@ def main(argv=None):
         restore()
 
 
+def _warm_up(pipeline):
+    """The steps before the first frame, with progress when they take long (5 million silent
+    steps at --dt 1e-6 once looked like a hang): a first chunk is timed, and if the rest would
+    take more than two seconds the rest is shown."""
+    import time
+
+    from .progress import progress
+
+    steps = pipeline.steps
+    chunk = max(1, steps // 100)
+    start = time.perf_counter()
+    pipeline.step(min(chunk, steps))
+    pipeline.ctx.mgl.finish()
+    done = min(chunk, steps)
+    chunks = -(-(steps - done) // chunk)
+    if (time.perf_counter() - start) * chunks <= 2.0:
+        pipeline.step(steps - done)
+        return
+    for k in progress(range(chunks), chunks, "warm-up", unit="chunk"):
+        pipeline.step(min(chunk, steps - done - k * chunk))
+
+
+def _note_static_animation(args, frames):
+    """A hint where an animation would show nothing change (one line on stderr)."""
+    if frames > 1 and getattr(args, "animate_to", "absent") is None:
+        print("es2particles: note: --frames without --animate-to keeps the coefficients; the "
+              "frames differ only as particles move" + (" (reseeded: not at all)"
+                                                        if getattr(args, "reseed", False) else "")
+              + "; give --animate-to A,B,C,D to animate them", file=sys.stderr)
+
+
 def _terminate_as_interrupt():
     """SIGTERM unwinds like Ctrl-C while the command runs, so partly written files are removed
     (an animation's hidden .part file stayed behind after a kill); returns what restores the
@@ -197,11 +228,12 @@ def _run(args):
     out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
+    _note_static_animation(args, frames)
     with open_context() as ctx:
         scene, pipeline = _pipeline(ctx, args)
         with pipeline:
             scene.before_frame(pipeline.sim, 0, frames)
-            pipeline.warm_up()
+            _warm_up(pipeline)
             if frames == 1:
                 save_image(pipeline.image(), out)
             else:

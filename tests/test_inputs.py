@@ -73,7 +73,7 @@ def test_an_interrupt_is_one_line_and_leaves_no_file(tmp_path, capsys, monkeypat
     def interrupted(self, *args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(pipeline.Pipeline, "warm_up", interrupted)
+    monkeypatch.setattr(pipeline.Pipeline, "step", interrupted)
     assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 130
     assert capsys.readouterr().err == "es2particles: interrupted\n"
     assert list(tmp_path.iterdir()) == []
@@ -138,3 +138,35 @@ def test_library_seams_raise_named_errors(gl, tmp_path):
     with pytest.raises(ParameterError, match="at least one frame"):
         save_animation([], tmp_path / "x.webp")
     assert list(p.name for p in tmp_path.iterdir()) == ["bad.frag"]
+
+
+def test_frames_without_animate_to_get_a_note(tmp_path, capsys):
+    args = ["run", "dejong", *SMALL, "--frames", "2", "--out"]
+    assert main(args + [str(tmp_path / "a.webp")]) == 0
+    assert "--frames without --animate-to" in capsys.readouterr().err
+    assert main(args + [str(tmp_path / "b.webp"), "--animate-to", "1.5,-2.3,2.4,-2.1"]) == 0
+    assert "--frames without --animate-to" not in capsys.readouterr().err
+
+
+def test_a_long_warm_up_shows_progress_and_runs_every_step(capsys):
+    import time
+    from types import SimpleNamespace
+
+    from es2particles.cli import _warm_up
+
+    class SlowPipeline:
+        steps, done = 1000, 0
+        ctx = SimpleNamespace(mgl=SimpleNamespace(finish=lambda: None))
+
+        def step(self, n):
+            self.done += n
+            time.sleep(0.03 * n / 10)  # 1000 steps would take 3 s
+
+    slow = SlowPipeline()
+    _warm_up(slow)
+    assert slow.done == 1000
+    assert "warm-up: 99/99 chunks" in capsys.readouterr().err
+    quick = SlowPipeline()
+    quick.steps = 50
+    _warm_up(quick)
+    assert quick.done == 50 and capsys.readouterr().err == ""

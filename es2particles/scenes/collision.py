@@ -174,8 +174,10 @@ class Collision(Scene):
         add("--drag", type=float, default=0.05, help="drag coefficient k (default 0.05)")
         add("--sliding", type=float, default=0.5, help="sliding factor (mass) in [0, 1]")
         add("--bounce", type=float, default=0.6, help="bouncing resistance r (default 0.6)")
-        add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"))
-        add("--speed", type=float, nargs=2, default=(2.6, 3.2), metavar=("MIN", "MAX"))
+        add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"),
+            help="lifetime range in seconds (default 3 5; at most 32512 steps of --dt)")
+        add("--speed", type=float, nargs=2, default=(2.6, 3.2), metavar=("MIN", "MAX"),
+            help="emission speed range (default 2.6 3.2)")
 
     @classmethod
     def from_args(cls, args):

@@ -46,6 +46,9 @@ def main(argv=None):
         restore()
 
 
+MAX_IMAGE_FRAMES = 900  # WebP/GIF/APNG: each spilled frame is an open file while pillow encodes
+
+
 def _warm_up(pipeline):
     """The steps before the first frame, with progress when they take long (5 million silent
     steps at --dt 1e-6 once looked like a hang): a first chunk is timed, and if the rest would
@@ -181,7 +184,8 @@ def _add_common_arguments(parser, running):
     add("--steps", type=int, default=None,
         help="simulation steps before the (first) frame (default: the scene's)")
     if running:
-        add("--out", required=True, help="output: .png image, or with --frames .webp/.gif/.png")
+        add("--out", required=True,
+            help="output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video extra)")
         add("--frames", type=int, default=1, help="frames of an animation (default 1: a still)")
         add("--steps-per-frame", type=int, default=1, help="steps between frames (default 1)")
         add("--fps", type=float, default=30.0, help="animation frame rate (default 30)")
@@ -216,9 +220,9 @@ def _run(args):
     import time
 
     from .context import open_context
-    from .errors import check_range
-    from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, check_output, save_animation,
-                         save_image, save_state)
+    from .errors import ParameterError, check_range
+    from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
+                         check_video, save_image, save_state)
     from .progress import progress
 
     start = time.perf_counter()
@@ -226,6 +230,10 @@ def _run(args):
     per_frame = int(check_range("steps-per-frame", args.steps_per_frame, 1, 10 ** 6, integer=True))
     fps = check_range("fps", args.fps, 0.1, 1000)
     out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
+    if frames > MAX_IMAGE_FRAMES and out.suffix.lower() != ".mp4":
+        raise ParameterError(f"frames must be at most {MAX_IMAGE_FRAMES} for {out.suffix} "
+                             f"(pillow holds every frame's file open); got {frames}: write .mp4 "
+                             "for longer animations")
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
     _note_static_animation(args, frames)
@@ -237,14 +245,15 @@ def _run(args):
             if frames == 1:
                 save_image(pipeline.image(), out)
             else:
-                images = []
-                for frame in progress(range(frames), frames, "frames"):
-                    if frame:
-                        scene.before_frame(pipeline.sim, frame, frames)
-                        pipeline.step(per_frame)
-                    pipeline.render(frame, frames)
-                    images.append(pipeline.image())
-                save_animation(images, out, fps)
+                check_video(out, pipeline.size)  # before the frames: the extra, even sides
+                with AnimationWriter(out, fps) as writer:  # frames stream out: bounded memory
+                    for frame in progress(range(frames), frames, "frames"):
+                        if frame:
+                            scene.before_frame(pipeline.sim, frame, frames)
+                            pipeline.step(per_frame)
+                        pipeline.render(frame, frames)
+                        writer.add(pipeline.image())
+                    writer.close()
             if state_path is not None:
                 save_state(pipeline.state(), state_path)
             print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "

@@ -13,7 +13,8 @@ import numpy as np
 from .errors import ParameterError
 
 IMAGE_SUFFIXES = {".png": "PNG"}
-ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG"}
+ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG", ".mp4": "MP4"}
+VIDEO_EXTRA = "MP4 needs the video extra: pip install 'es2particles[video]' (imageio-ffmpeg)"
 
 
 def check_output(path, parameter, suffixes):
@@ -47,6 +48,107 @@ def check_folder(folder, parameter):
     if not os.access(existing, os.W_OK):
         raise ParameterError(f"{parameter}: folder {str(existing)!r} is not writable")
     return folder
+
+
+def check_video(path, size):
+    """Raise before any work if ``path`` is an MP4 that cannot be written: the extra missing, or
+    an odd side (H.264 in yuv420p halves the colour resolution)."""
+    if Path(path).suffix.lower() != ".mp4":
+        return
+    try:
+        import imageio_ffmpeg  # noqa: F401
+    except ImportError:
+        raise ParameterError(VIDEO_EXTRA) from None
+    if size[0] % 2 or size[1] % 2:
+        raise ParameterError(f"MP4 needs an even width and height, got {size[0]}x{size[1]}")
+
+
+class AnimationWriter:
+    """Writes an animation frame by frame in bounded memory, atomically.
+
+    MP4 (H.264) frames stream to ffmpeg (imageio-ffmpeg, the ``video`` extra); WebP, GIF and APNG
+    frames are kept as PNG files in a hidden folder beside the output and assembled at the end
+    (pillow reads them one at a time). The result appears under ``path`` only when complete; any
+    failure (or Ctrl-C, or SIGTERM through the command line) removes what was written.
+    """
+
+    def __init__(self, path, fps=30):
+        self.path, self.fps = Path(path), fps
+        self.format = ANIMATION_SUFFIXES[self.path.suffix.lower()]
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.folder = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".frames",
+                                            dir=self.path.parent))
+        self.count, self.video, self.size = 0, None, None
+
+    def add(self, frame):
+        frame = np.ascontiguousarray(frame, dtype=np.uint8)
+        if frame.ndim != 3 or frame.shape[2] != 3 or 0 in frame.shape:
+            raise ParameterError(f"a frame must be an (h, w, 3) array, got {frame.shape}")
+        if self.size is None:
+            self.size = frame.shape[1], frame.shape[0]
+        elif (frame.shape[1], frame.shape[0]) != self.size:
+            raise ParameterError(f"frames must all be {self.size[0]}x{self.size[1]}")
+        if self.format == "MP4":
+            if self.video is None:
+                self.video = self._open_video()
+            self.video.send(frame.tobytes())
+        else:
+            (self.folder / f"{self.count:06d}.png").write_bytes(encode_png(frame))
+        self.count += 1
+
+    def _open_video(self):
+        check_video(self.path, self.size)
+        import imageio_ffmpeg
+
+        video = imageio_ffmpeg.write_frames(
+            str(self.folder / "video.mp4"), self.size, fps=self.fps, codec="libx264",
+            pix_fmt_in="rgb24", pix_fmt_out="yuv420p", quality=8, macro_block_size=1,
+            ffmpeg_log_level="error")
+        video.send(None)  # start ffmpeg
+        return video
+
+    def close(self):
+        """Finish the file and move it onto ``path``; returns the path."""
+        from PIL import Image
+
+        if self.count == 0:
+            raise ParameterError("an animation needs at least one frame")
+        try:
+            if self.format == "MP4":
+                self.video.close()
+                os.replace(self.folder / "video.mp4", self.path)
+            else:
+                # Opening a PNG reads its header only: the pixels are read one frame at a time
+                # as the encoder takes them (a list: pillow's APNG writer takes no generator).
+                frames = sorted(self.folder.glob("*.png"))
+                first, rest = Image.open(frames[0]), [Image.open(f) for f in frames[1:]]
+                options = {"save_all": True, "append_images": rest,
+                           "duration": int(round(1000 / self.fps)), "loop": 0}
+                if self.format == "WEBP":
+                    options.update(quality=90, method=4)
+                _atomic(self.path, lambda tmp: first.save(tmp, format=self.format, **options))
+        finally:
+            self.abort()
+        return self.path
+
+    def abort(self):
+        """Remove everything written so far (the output itself is untouched)."""
+        import shutil
+
+        if self.video is not None:
+            try:
+                self.video.close()
+            except Exception:  # ffmpeg may already have gone; its files go anyway
+                pass
+            self.video = None
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, value, traceback):
+        if kind is not None:
+            self.abort()
 
 
 def write_atomic(path, write):
@@ -120,19 +222,12 @@ def save_image(pixels, path, compress_level=1):
 
 
 def save_animation(frames, path, fps=30):
-    """Write a list of (h, w, 3) uint8 frames as an animated WebP, GIF or PNG (APNG)."""
-    from PIL import Image
-
-    frames = list(frames)
-    if not frames:
-        raise ParameterError("an animation needs at least one frame")
-    images = [Image.fromarray(np.asarray(f, dtype=np.uint8), "RGB") for f in frames]
-    fmt = ANIMATION_SUFFIXES[Path(path).suffix.lower()]
-    options = {"save_all": True, "append_images": images[1:], "duration": int(round(1000 / fps)),
-               "loop": 0}
-    if fmt == "WEBP":
-        options.update(quality=90, method=4)
-    return _atomic(path, lambda tmp: images[0].save(tmp, format=fmt, **options))
+    """Write (h, w, 3) uint8 frames (any iterable) as an animated WebP, GIF, PNG (APNG) or MP4,
+    through :class:`AnimationWriter`."""
+    with AnimationWriter(path, fps) as writer:
+        for frame in frames:
+            writer.add(frame)
+        return writer.close()
 
 
 def save_state(arrays, path):

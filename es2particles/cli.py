@@ -71,6 +71,18 @@ def _warm_up(pipeline):
         pipeline.step(min(chunk, steps - done - k * chunk))
 
 
+def _note_sparse(pipeline):
+    """A hint where a density picture will be mostly empty (--size 4000x4000 with the default
+    particles lit 5% of the pixels with no word)."""
+    if pipeline.post is None:
+        return
+    per_pixel = pipeline.sim.count / (pipeline.size[0] * pipeline.size[1])
+    if per_pixel < 0.25:
+        print(f"es2particles: note: {pipeline.sim.count} particles on {pipeline.size[0]}x"
+              f"{pipeline.size[1]} pixels is {per_pixel:.2g} a pixel: the picture will be "
+              "sparse; raise --particles (or --point-size)", file=sys.stderr)
+
+
 def _note_static_animation(args, frames):
     """A hint where an animation would show nothing change (one line on stderr)."""
     if frames > 1 and getattr(args, "animate_to", "absent") is None:
@@ -171,7 +183,8 @@ def _add_common_arguments(parser, running):
         help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
              "path, or 'none' to switch the gradient map off")
     add("--no-bloom", action="store_true", help="switch bloom off")
-    add("--bloom-threshold", type=float, default=0.6, help="bloom luminance threshold [0, 1]")
+    add("--bloom-threshold", type=float, default=0.2,
+        help="bloom luminance threshold [0, 1] (default 0.2)")
     add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4]")
     add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10]")
     add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
@@ -240,6 +253,7 @@ def _run(args):
     with open_context() as ctx:
         scene, pipeline = _pipeline(ctx, args)
         with pipeline:
+            _note_sparse(pipeline)
             scene.before_frame(pipeline.sim, 0, frames)
             _warm_up(pipeline)
             if frames == 1:

@@ -21,7 +21,9 @@ class Bloom:
     """Bloom settings: luminance threshold in [0, 1], blur radius (sigma in [0.5, 4] texels of the
     half-resolution level; the quarter level doubles it), and how much glow is added."""
 
-    threshold: float = 0.6
+    # 0.2: the article's glow shows (21% of the de Jong still's pixels change, 0.6% saturate);
+    # at 0.6, above 99.9% of the pixels, bloom changed 0.04% and the glow was invisible.
+    threshold: float = 0.2
     radius: float = 3.0
     intensity: float = 0.8
 

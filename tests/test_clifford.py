@@ -15,7 +15,7 @@ TRIG_EPS = 2.0 ** -20
 
 def reference(scene, start, iterations):
     """float64: the map, then the clamp into the range that a write does."""
-    x0, y0, x1, y1 = scene.view
+    x0, y0, x1, y1 = scene.range
     return np.clip(clifford_map(start.astype(np.float64), scene.coefficients, iterations),
                    (x0, y0), (x1, y1))
 
@@ -25,20 +25,21 @@ def one_step_bound(scene, iterations):
     constant L = max(|a| (1 + |c|), |b| (1 + |d|))."""
     a, b, c, d = (abs(k) for k in scene.coefficients)
     lipschitz = max(a * (1 + c), b * (1 + d), 1.0)
-    x0, y0, x1, y1 = scene.view
+    x0, y0, x1, y1 = scene.range
     half_code = max(x1 - x0, y1 - y0) / 65024 / 2
     return half_code + sum(lipschitz ** i for i in range(iterations)) * 2 * TRIG_EPS * (1 + max(c, d))
 
 
 def histogram(scene, points, bins):
-    x0, y0, x1, y1 = scene.view
+    x0, y0, x1, y1 = scene.range
     h, _, _ = np.histogram2d(points[:, 0], points[:, 1], bins=bins, range=[[x0, x1], [y0, y1]])
     return h.ravel()
 
 
 def test_view_and_range_come_from_the_coefficients():
     scene = Clifford(ISSUE_COEFFICIENTS)
-    assert scene.view == (-2.0, -1.7, 2.0, 1.7)
+    assert scene.range == (-2.0, -1.7, 2.0, 1.7)
+    assert np.allclose(scene.view, (-2.2, -1.87, 2.2, 1.87))  # 5% margin each side
     points = clifford_map(np.random.default_rng(0).uniform(-50, 50, (10 ** 5, 2)),
                           ISSUE_COEFFICIENTS)
     assert np.all(np.abs(points) <= (2.0, 1.7))  # the map's image lies in the range
@@ -70,7 +71,7 @@ def test_reseeded_clifford_matches_float64_per_particle(gl):
     with Simulation(gl, scene.graph(), 2 ** 16) as sim:
         sim.step()
         got = sim.download("position")
-        x0, y0, x1, y1 = scene.view
+        x0, y0, x1, y1 = scene.range
         start = (x0, y0) + sim.layout.texel_uv().astype(np.float64) * (x1 - x0, y1 - y0)
     error = np.abs(got - reference(scene, start, 3)).max()
     # the rasteriser interpolates v_uv in float32: a few ulps of start error, carried by L^3

@@ -170,3 +170,24 @@ def test_a_long_warm_up_shows_progress_and_runs_every_step(capsys):
     quick.steps = 50
     _warm_up(quick)
     assert quick.done == 50 and capsys.readouterr().err == ""
+
+
+def test_a_sparse_picture_gets_a_hint(tmp_path, capsys):
+    assert main(["run", "dejong", "--particles", "256", "--size", "64x64", "--steps", "1",
+                 "--out", str(tmp_path / "x.png")]) == 0
+    assert "the picture will be sparse" in capsys.readouterr().err
+    assert main(["run", "dejong", "--particles", "4096", "--size", "64x64", "--steps", "1",
+                 "--out", str(tmp_path / "y.png")]) == 0
+    assert "sparse" not in capsys.readouterr().err
+
+
+def test_the_default_bloom_shows(tmp_path):
+    from PIL import Image
+
+    args = ["run", "dejong", "--particles", "262144", "--size", "512x512"]
+    assert main(args + ["--no-bloom", "--out", str(tmp_path / "a.png")]) == 0
+    assert main(args + ["--out", str(tmp_path / "b.png")]) == 0
+    a, b = (np.asarray(Image.open(tmp_path / n)).astype(int) for n in ("a.png", "b.png"))
+    changed = (np.abs(a - b).max(axis=2) > 2).mean()
+    print(f"default bloom changes {changed:.1%} of the pixels")
+    assert changed > 0.05  # was 0.04% at the old threshold: an invisible glow

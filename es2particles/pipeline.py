@@ -125,6 +125,13 @@ class Pipeline:
             self.render()
         return (self.post or self.renderer).read(self.final)
 
+    def picture(self):
+        """The last rendered frame as a :class:`~es2particles.notebook.Picture`: a notebook cell
+        shows it."""
+        from .notebook import Picture
+
+        return Picture(self.image())
+
     def state(self):
         """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
         return {name: self.sim.download(name) for name in self.sim.buffers}

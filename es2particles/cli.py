@@ -11,7 +11,8 @@ import sys
 from .errors import Es2ParticlesError
 
 
-def main(argv=None):
+def build_parser():
+    """The command line's parser (every installed scene has its run and plan commands)."""
     parser = argparse.ArgumentParser(prog="es2particles",
                                      description="GPU particle systems, OpenGL ES 2.0 style, headless.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -21,9 +22,14 @@ def main(argv=None):
     report = commands.add_parser("report", help="error against run time, and the stability suite")
     report.add_argument("--quick", action="store_true",
                         help="a small sweep (about 35 s on a 2-core CPU without a GPU)")
-    report.add_argument("--out", default="out/report", help="folder for REPORT.md and charts")
+    report.add_argument("--out", default="out/report",
+                        help="folder for REPORT.md and charts (default out/report)")
     report.set_defaults(handler=_report)
-    args = parser.parse_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
+    return parser
+
+
+def main(argv=None):
+    args = build_parser().parse_args(_join_negative_values(sys.argv[1:] if argv is None else argv))
     restore = _terminate_as_interrupt()
     try:
         return args.handler(args) or 0
@@ -162,7 +168,8 @@ def _add_scene_commands(commands):
                                      description=f"{text}. Installed scenes: {names}.")
         scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
         for name, scene in scenes_found.items():
-            sub = scenes.add_parser(name, help=(scene.__doc__ or name).strip().splitlines()[0])
+            summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")
+            sub = scenes.add_parser(name, help=summary, description=summary)
             _add_common_arguments(sub, command == "run")
             scene.add_arguments(sub)
             sub.set_defaults(handler=_run if command == "run" else _plan, scene_class=scene)
@@ -181,12 +188,12 @@ def _add_common_arguments(parser, running):
              "nearest for reseeded de Jong)")
     add("--gradient", default="inferno",
         help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
-             "path, or 'none' to switch the gradient map off")
+             "path, or 'none' to switch the gradient map off (default inferno)")
     add("--no-bloom", action="store_true", help="switch bloom off")
     add("--bloom-threshold", type=float, default=0.2,
         help="bloom luminance threshold [0, 1] (default 0.2)")
-    add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4]")
-    add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10]")
+    add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4] (default 3)")
+    add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10] (default 0.8)")
     add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
     add("--point-size", type=float, default=None,
         help="point diameter in pixels (default: the scene's; 1 for the attractors, 2 for "

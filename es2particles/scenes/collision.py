@@ -167,12 +167,15 @@ class Collision(Scene):
     def add_arguments(cls, parser):
         add = parser.add_argument
         add("--shape", default="circle", help="circle, box, capsule, a union such as circle+box, "
-            "or a PNG mask (dark or opaque pixels are solid) stretched over the scene")
-        add("--field-resolution", type=int, default=256, help="collision field cells per side")
+            "or a PNG mask (dark or opaque pixels are solid) stretched over the scene (default "
+            "circle)")
+        add("--field-resolution", type=int, default=256,
+            help="collision field cells per side (default 256)")
         add("--dt", type=float, default=1 / 60, help="time step in seconds (default 1/60)")
         add("--gravity", type=float, default=3.0, help="downward acceleration (default 3)")
         add("--drag", type=float, default=0.05, help="drag coefficient k (default 0.05)")
-        add("--sliding", type=float, default=0.5, help="sliding factor (mass) in [0, 1]")
+        add("--sliding", type=float, default=0.5,
+            help="sliding factor (mass) in [0, 1] (default 0.5)")
         add("--bounce", type=float, default=0.6, help="bouncing resistance r (default 0.6)")
         add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"),
             help="lifetime range in seconds (default 3 5; at most 32512 steps of --dt)")

@@ -123,8 +123,10 @@ class Fountain(Scene):
         add("--gravity", type=float, default=9.81, help="downward acceleration (default 9.81)")
         add("--drag", type=float, default=0.1, help="drag coefficient k (default 0.1)")
         add("--floor", choices=FLOORS, default="kill",
-            help="kill: die through the floor and be re-emitted at once (the seed); bounce")
-        add("--bounce", type=float, default=0.5, help="speed kept on a floor bounce, [0, 1]")
+            help="kill: die through the floor and be re-emitted at once (the seed); bounce "
+                 "(default kill)")
+        add("--bounce", type=float, default=0.5,
+            help="speed kept on a floor bounce, [0, 1] (default 0.5)")
         add("--lifetime", type=float, nargs=2, default=(2.0, 2.5), metavar=("MIN", "MAX"),
             help="lifetime range in seconds (default 2 2.5)")
         add("--emitters", default="0,0,0",
@@ -132,10 +134,12 @@ class Fountain(Scene):
                  "x,y,z,dx,dy,dz,rate (a share of the particles); default one at the origin, "
                  "launching up")
         add("--camera", choices=CAMERAS, default="fixed",
-            help="fixed, or orbit: circle the scene once over the frames of an animation")
+            help="fixed, or orbit: circle the scene once over the frames of an animation "
+                 "(default fixed)")
         add("--blend", choices=("add", "over"), default="add",
-            help="sprite blending: add (glow) or over (premultiplied alpha)")
-        add("--sprite", default="fireball", help="sprite texture: fireball, disc or a PNG path")
+            help="sprite blending: add (glow) or over (premultiplied alpha) (default add)")
+        add("--sprite", default="fireball",
+            help="sprite texture: fireball, disc or a PNG path (default fireball)")
 
     @classmethod
     def from_args(cls, args):

@@ -1,0 +1,36 @@
+"""The command line's help is complete: every option with a default says it."""
+
+import argparse
+
+import pytest
+
+from es2particles.cli import build_parser
+
+
+def commands():
+    parser = build_parser()
+    top = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for name, command in top.choices.items():
+        scenes = [a for a in command._actions if isinstance(a, argparse._SubParsersAction)]
+        if scenes:
+            for scene, sub in scenes[0].choices.items():
+                yield f"{name} {scene}", sub
+        else:
+            yield name, command
+
+
+COMMANDS = list(commands())
+
+
+@pytest.mark.parametrize("name, parser", COMMANDS, ids=[n for n, _ in COMMANDS])
+def test_every_option_with_a_default_states_it(name, parser):
+    missing = []
+    for action in parser._actions:
+        if not action.option_strings or action.help in (None, argparse.SUPPRESS):
+            continue
+        if action.default in (None, False, argparse.SUPPRESS) or action.required:
+            continue
+        if "default" not in action.help:
+            missing.append(f"{action.option_strings[0]} (default {action.default!r})")
+    assert not missing, f"{name}: " + ", ".join(missing)
+    assert "``" not in (parser.description or "")

@@ -152,6 +152,9 @@ def _report(args):
     if out.exists() and not out.is_dir():
         raise ParameterError(f"--out {args.out!r} is a file; it must be a folder")
     check_folder(out, "--out")  # made, with any missing parents, when the report is written
+    if (out / "REPORT.md").is_dir():
+        raise ParameterError(f"--out: {str(out / 'REPORT.md')!r} is a folder; the report would "
+                             "go there")
     with open_context() as ctx:
         path = run(ctx, out, quick=args.quick)
     print(f"wrote {path}")
@@ -274,6 +277,9 @@ def _run(args):
                             pipeline.step(per_frame)
                         pipeline.render(frame, frames)
                         writer.add(pipeline.image())
+                    if out.suffix.lower() != ".mp4":  # the assembly takes a while: say so
+                        print(f"es2particles: assembling {frames} frames into {out}",
+                              file=sys.stderr)
                     writer.close()
             if state_path is not None:
                 save_state(pipeline.state(), state_path)

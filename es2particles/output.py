@@ -13,6 +13,7 @@ import numpy as np
 from .errors import ParameterError
 
 IMAGE_SUFFIXES = {".png": "PNG"}
+NAME_MAX = 255  # bytes of a file name on the file systems this runs on
 ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG", ".mp4": "MP4"}
 VIDEO_EXTRA = "MP4 needs the video extra: pip install 'es2particles[video]' (imageio-ffmpeg)"
 
@@ -29,6 +30,9 @@ def check_output(path, parameter, suffixes):
     if path.suffix.lower() not in suffixes:
         raise ParameterError(f"{parameter} must end in {', '.join(sorted(suffixes))}, got {str(path)!r}")
     check_folder(path.parent if str(path.parent) else Path("."), parameter)
+    if len(path.name.encode()) > NAME_MAX - 24:  # room for the temporary name's decoration
+        raise ParameterError(f"{parameter}: the file name is {len(path.name.encode())} bytes; at "
+                             f"most {NAME_MAX - 24}")
     if path.exists() and not os.access(path, os.W_OK):
         raise ParameterError(f"{parameter}: {str(path)!r} is not writable")
     if path.is_dir():
@@ -45,9 +49,33 @@ def check_folder(folder, parameter):
         existing = existing.parent
     if not existing.is_dir():
         raise ParameterError(f"{parameter}: {str(existing)!r} is a file, not a folder")
-    if not os.access(existing, os.W_OK):
-        raise ParameterError(f"{parameter}: folder {str(existing)!r} is not writable")
+    # Try it: permissions say nothing of a read-only file system, /proc, or root's rights.
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".es2particles-probe-"):
+            pass
+    except OSError as error:
+        raise ParameterError(f"{parameter}: cannot write in {str(existing)!r}: "
+                             f"{error.strerror or error}") from None
     return folder
+
+
+def remove_leftovers(path):
+    """Remove what a killed earlier run left for ``path`` (its hidden temporary files and frame
+    folders; a SIGKILL cannot be caught, so the next run cleans up)."""
+    import shutil
+
+    path = Path(path)
+    for stale in (path.parent or Path(".")).glob(f".{glob_escape(path.name)}.*"):
+        if stale.name.endswith(".part"):
+            stale.unlink(missing_ok=True)
+        elif stale.name.endswith(".frames") and stale.is_dir():
+            shutil.rmtree(stale, ignore_errors=True)
+
+
+def glob_escape(name):
+    import glob
+
+    return glob.escape(name)
 
 
 def check_video(path, size):
@@ -76,6 +104,7 @@ class AnimationWriter:
         self.path, self.fps = Path(path), fps
         self.format = ANIMATION_SUFFIXES[self.path.suffix.lower()]
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(self.path)
         self.folder = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".frames",
                                             dir=self.path.parent))
         self.count, self.video, self.size = 0, None, None
@@ -161,6 +190,7 @@ def _atomic(path, write):
     Missing folders on the way are made first."""
     path = Path(path)
     (path.parent or Path(".")).mkdir(parents=True, exist_ok=True)
+    remove_leftovers(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
     os.close(fd)
     try:

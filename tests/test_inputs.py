@@ -191,3 +191,28 @@ def test_the_default_bloom_shows(tmp_path):
     changed = (np.abs(a - b).max(axis=2) > 2).mean()
     print(f"default bloom changes {changed:.1%} of the pixels")
     assert changed > 0.05  # was 0.04% at the old threshold: an invisible glow
+
+
+@pytest.mark.parametrize("path", ["/proc/x.png", "LONG"])
+def test_unwritable_places_are_refused_before_the_work(tmp_path, capsys, path):
+    if path == "LONG":
+        path = str(tmp_path / ("n" * 300 + ".png"))
+    assert main(["run", "dejong", *SMALL, "--out", path]) == 2
+    err = capsys.readouterr().err
+    assert ("cannot write in" in err or "the file name is" in err) and "Traceback" not in err
+
+
+def test_a_report_onto_a_folder_named_report_md_is_refused(tmp_path, capsys):
+    (tmp_path / "r" / "REPORT.md").mkdir(parents=True)
+    assert main(["report", "--quick", "--out", str(tmp_path / "r")]) == 2
+    assert "is a folder" in capsys.readouterr().err
+
+
+def test_a_later_run_removes_what_a_killed_one_left(tmp_path):
+    (tmp_path / ".x.png.abc123.part").write_bytes(b"half")
+    (tmp_path / ".a.webp.xyz.frames").mkdir()
+    (tmp_path / ".a.webp.xyz.frames" / "000000.png").write_bytes(b"frame")
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 0
+    assert main(["run", "dejong", *SMALL, "--frames", "2", "--animate-to", "1.5,-2.3,2.4,-2.1",
+                 "--out", str(tmp_path / "a.webp")]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.webp", "x.png"]

@@ -216,3 +216,11 @@ def test_a_later_run_removes_what_a_killed_one_left(tmp_path):
     assert main(["run", "dejong", *SMALL, "--frames", "2", "--animate-to", "1.5,-2.3,2.4,-2.1",
                  "--out", str(tmp_path / "a.webp")]) == 0
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.webp", "x.png"]
+
+
+def test_an_output_that_is_a_symlink_is_replaced_not_written_through(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("keep me")
+    (tmp_path / "x.png").symlink_to(victim)
+    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 0
+    assert victim.read_text() == "keep me" and not (tmp_path / "x.png").is_symlink()

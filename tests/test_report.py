@@ -44,3 +44,13 @@ def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path, capsys,
         assert "Charts were skipped" in text
     else:
         assert (out / "dejong_work_precision.png").stat().st_size > 10000
+
+
+def test_the_full_sweeps_smallest_time_step_runs(gl):
+    """The full report's dt sweep goes to 2^-13, where the default lifetimes exceed the life
+    clock; its free-flight case must still run (the full report once stopped there)."""
+    from es2particles.report.document import FULL
+
+    row = measure.collision_dt_row(gl, "rgba32f", "nearest", max(FULL["dt_k"]), horizon=0.01,
+                                   count=16)
+    assert row["dt"] == 2.0 ** -max(FULL["dt_k"]) and np.isfinite(row["error"])

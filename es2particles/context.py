@@ -346,6 +346,14 @@ class Context:
             raise CapabilityError(f"format {fmt!r} cannot be {need} on {self.caps.renderer}")
 
 
+def read_rgb(texture):
+    """An RGBA8 texture as an (h, w, 3) uint8 image, top row first (GL's first row is the
+    bottom)."""
+    w, h = texture.size
+    pixels = np.frombuffer(texture.read(), dtype=np.uint8).reshape(h, w, 4)
+    return pixels[::-1, :, :3].copy()
+
+
 def _probe(ctx):
     mgl = ctx.mgl
     info = mgl.info

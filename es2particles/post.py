@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .command import FullscreenCommand
+from .context import read_rgb
 from .errors import check_range
 from .graph import _bytes
 from .ramps import load_ramp
@@ -172,9 +173,7 @@ class PostChain:
     def read(self, texture):
         """An RGBA8 texture as an (h, w, 3) uint8 image, top row first."""
         self.ctx.make_current()
-        w, h = texture.size
-        pixels = np.frombuffer(texture.read(), dtype=np.uint8).reshape(h, w, 4)
-        return pixels[::-1, :, :3].copy()
+        return read_rgb(texture)
 
     def release(self):
         self.group.release()

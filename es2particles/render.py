@@ -39,6 +39,42 @@ def choose_accumulation(ctx):
     raise CapabilityError(f"no format can be blended into on {ctx.caps.renderer}")
 
 
+class ParticleStage:
+    """The program of a renderer that draws one point per particle, its vertex shader reading
+    quantities at the particle's texel: the generated interface (``bindings.stage_interface``),
+    the checked compile, the renderer's uniform values (kept per user: the context's cache may
+    share the program), sampler units by name, and the buffer of texel coordinates that names
+    each particle (ES 1.00 has no gl_VertexID) with its vertex array. Shared by the density
+    points and the 3D sprites."""
+
+    def __init__(self, group, vertex, fragment, stage, quantities, state_format, layout, uniforms,
+                 defines=None):
+        ctx = group.ctx
+        self.interface = stage_interface(tuple(quantities), quantities, state_format, uniforms)
+        self.program = compile_checked(
+            lambda: ctx.program(vertex, fragment, defines, vertex_prelude=self.interface.lines),
+            expand(vertex, defines, self.interface.lines), self.interface, f"{stage} ({vertex})")
+        self.state = ProgramValues(ctx, self.program)
+        self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
+        self.set_many({**self.units, **self.interface.fixed, **uniforms,
+                       "u_state_size": (float(layout.width), float(layout.height))})
+        self.texels = group.buffer(layout.texel_uv().tobytes())
+        self.vao = group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
+
+    def set_many(self, values):
+        """Set uniforms the program uses (others, dropped by the driver, are skipped)."""
+        for name, value in values.items():
+            if name in self.program:
+                self.state.set(name, value)
+
+    def bind(self, buffers):
+        """Bind each read quantity's front textures (``buffers``: name -> StateBuffer) and make
+        the program hold this renderer's values."""
+        for name, (_, q, part, _) in self.interface.samplers.items():
+            buffers[q].fronts[part].use(self.units[name])
+        self.state.current()
+
+
 class PointRenderer:
     """Renders the particles of a simulation as additive points into a density texture.
 
@@ -101,22 +137,12 @@ class PointRenderer:
         if "life" in quantities:
             defines["AGE_FADE"] = None
         uniforms = {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": self.point_size}
-        self.interface = stage_interface(self.reads, quantities, state_format, uniforms)
         self.group = ctx.group()
         try:
-            self.program = compile_checked(
-                lambda: ctx.program("points.vert", "points.frag", defines,
-                                    vertex_prelude=self.interface.lines),
-                expand("points.vert", defines, self.interface.lines), self.interface,
-                "the point renderer (points.vert)")
-            self.state = ProgramValues(ctx, self.program)  # the program may be shared
-            self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
-            for name, value in {**self.units, **self.interface.fixed, **uniforms}.items():
-                if name in self.program:
-                    self.state.set(name, value)
-            self.state.set("u_colour", (self.intensity * self.scale,) * 4)
-            self.texels = self.group.buffer(layout.texel_uv().tobytes())
-            self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
+            self.stage = ParticleStage(self.group, "points.vert", "points.frag",
+                                       "the point renderer", quantities, state_format, layout,
+                                       uniforms, defines)
+            self.stage.set_many({"u_colour": (self.intensity * self.scale,) * 4})
             self.density = self.group.texture(self.size, self.format, filter_nearest=False)
             self.framebuffer = self.group.framebuffer(self.density)
         except Exception:
@@ -147,20 +173,18 @@ class PointRenderer:
         py = np.clip(((positions[:, 1] - y0) / (y1 - y0) * h).astype(np.int64), 0, h - 1)
         key = ((py // tile) * (-(-w // tile)) + px // tile).astype(np.uint16)
         order = np.argsort(key, kind="stable")  # radix sort on 16-bit keys: ~8 ms at 2^20
-        self.texels.write(self.layout.texel_uv()[order].tobytes())
+        self.stage.texels.write(self.layout.texel_uv()[order].tobytes())
 
     def draw(self, buffers):
         """Clear the target and draw every particle; ``buffers`` maps each read quantity to its
         StateBuffer."""
         self.ctx.make_current()
-        for name, (kind, q, part, _) in self.interface.samplers.items():
-            buffers[q].fronts[part].use(self.units[name])
-        self.state.current()
+        self.stage.bind(buffers)
         with self.ctx.scope(self.framebuffer, blend="add", point_size=True):
             self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
             count, step = self.layout.count, self.draw_slice
             for first in range(0, count, step):
-                self.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)
+                self.stage.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)
                 if step < count:
                     self.ctx.flush()
         return self.density

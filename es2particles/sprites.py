@@ -14,10 +14,9 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from .bindings import compile_checked, stage_interface
-from .context import ProgramValues
+from .context import ProgramValues, read_rgb
 from .errors import CapabilityError, ParameterError, check_range
-from .shaders import expand
+from .render import ParticleStage
 
 BLENDS = ("add", "over")
 
@@ -197,32 +196,21 @@ class SpriteRenderer:
         self.pixel_size = self.point_size * size[1] / 1024
         uniforms = {"u_eye": (0.0, 0.0, 1.0), "u_size": (self.pixel_size, size_spread, lo, hi),
                     "u_attenuation": (a, b, c), "u_fade": float(fade)}
-        self.interface = stage_interface(self.reads, quantities, state_format, uniforms)
+        opacity = float(check_range("opacity", opacity, 0.0, 1.0))
         texture = load_sprite(sprite)
         self.group = ctx.group()
         try:
-            self.program = compile_checked(
-                lambda: ctx.program("sprites/sprite.vert", "sprites/sprite.frag",
-                                    vertex_prelude=self.interface.lines),
-                expand("sprites/sprite.vert", {}, self.interface.lines), self.interface,
-                "the sprite renderer (sprites/sprite.vert)")
-            self.state = ProgramValues(ctx, self.program)  # the program may be shared
-            self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
-            self.sprite_unit = len(self.units)
-            values = {**self.units, **self.interface.fixed, **uniforms, "u_sprite": self.sprite_unit,
-                      "u_state_size": (float(layout.width), float(layout.height)),  # size hash
-                      "u_tint": tuple(float(v) for v in tint),
-                      "u_opacity": float(check_range("opacity", opacity, 0.0, 1.0))}
-            for name, value in values.items():
-                if name in self.program:
-                    self.state.set(name, value)
+            self.stage = ParticleStage(self.group, "sprites/sprite.vert", "sprites/sprite.frag",
+                                       "the sprite renderer", quantities, state_format, layout,
+                                       uniforms)
+            self.sprite_unit = len(self.stage.units)
+            self.stage.set_many({"u_sprite": self.sprite_unit, "u_opacity": opacity,
+                                 "u_tint": tuple(float(v) for v in tint)})
             h, w = texture.shape[:2]
             # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's
             # first row belongs (meshes' textures are flipped: their v = 0 is the bottom).
             self.sprite = self.group.texture((w, h), "rgba8", data=texture.tobytes(),
                                              filter_nearest=False)
-            self.texels = self.group.buffer(layout.texel_uv().tobytes())
-            self.vao = self.group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
             self.image = self.group.texture(self.size, "rgba8", filter_nearest=False)
             self.framebuffer = self.group.framebuffer(self.image, self.group.depth(self.size))
             self.meshes = [self._mesh(m, light) for m in meshes]
@@ -274,22 +262,19 @@ class SpriteRenderer:
                     texture.use(0)
                 state.set("u_view_projection", view_projection)
                 vao.render(moderngl.TRIANGLES)
-        for name, (_, q, part, _) in self.interface.samplers.items():
-            buffers[q].fronts[part].use(self.units[name])
+        self.stage.bind(buffers)
         self.sprite.use(self.sprite_unit)
-        self.state.set("u_view_projection", view_projection)
-        self.state.set("u_eye", tuple(float(v) for v in camera.eye))
+        self.stage.set_many({"u_view_projection": view_projection,
+                             "u_eye": tuple(float(v) for v in camera.eye)})
         with self.ctx.scope(self.framebuffer, blend=self.blend, point_size=True, depth_test=True,
                             depth_write=False, sprites=True):
-            self.vao.render(moderngl.POINTS)
+            self.stage.vao.render(moderngl.POINTS)
         return self.image
 
     def read(self, texture=None):
         """The image as (h, w, 3) uint8, top row first."""
         self.ctx.make_current()
-        w, h = self.size
-        pixels = np.frombuffer(self.image.read(), dtype=np.uint8).reshape(h, w, 4)
-        return pixels[::-1, :, :3].copy()
+        return read_rgb(self.image)
 
     def release(self):
         self.group.release()

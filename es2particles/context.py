@@ -6,6 +6,7 @@ The returned :class:`Context` is the one owner of every texture, framebuffer, bu
 package makes, counts them, and releases them all on ``release()`` or at the end of a ``with``.
 """
 
+import ctypes
 import os
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -145,7 +146,6 @@ class Context:
         self.mgl = mgl
         self.backend = backend
         self.profile = profile
-        self._gl_flush = None
         self._gl_calls = {}
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         Context._current = self  # a new context is current
@@ -172,13 +172,7 @@ class Context:
         moderngl has no call for it, so it comes through moderngl's own GL function loader; where
         that loader is not there, this does nothing (a flush changes speed, never results).
         """
-        if self._gl_flush is None:
-            import ctypes
-
-            loader = getattr(self.mgl.mglo, "_context", None)
-            address = loader.load_opengl_function("glFlush") if loader is not None else 0
-            self._gl_flush = ctypes.CFUNCTYPE(None)(address) if address else (lambda: None)
-        self._gl_flush()
+        self._gl_function("glFlush")()
 
     # -- ownership ---------------------------------------------------------------------------
 
@@ -304,15 +298,19 @@ class Context:
             self.mgl.enable_only(moderngl.NOTHING)
 
     def _gl_switch(self, name, cap):
-        """glEnable/glDisable of a capability moderngl does not name, through its loader."""
-        import ctypes
+        """glEnable/glDisable of a capability moderngl does not name."""
+        self._gl_function(name, ctypes.c_uint)(cap)
 
+    def _gl_function(self, name, *argtypes):
+        """A GL entry point moderngl has no call for, through moderngl's own function loader
+        (loaded once); where that loader is not there, a no-op (these calls change speed or
+        state moderngl's drivers already have, never results)."""
         if name not in self._gl_calls:
             loader = getattr(self.mgl.mglo, "_context", None)
             address = loader.load_opengl_function(name) if loader is not None else 0
-            self._gl_calls[name] = (ctypes.CFUNCTYPE(None, ctypes.c_uint)(address) if address
-                                    else (lambda cap: None))
-        self._gl_calls[name](cap)
+            self._gl_calls[name] = (ctypes.CFUNCTYPE(None, *argtypes)(address) if address
+                                    else (lambda *args: None))
+        return self._gl_calls[name]
 
     def vertex_array(self, program, content):
         return self.own(self.mgl.vertex_array(program, content))

@@ -3,6 +3,7 @@ collision-scene particle, the independent reference of tests/test_collision.py a
 
 import numpy as np
 
+from .drag import exact_drag
 from .life import alive
 
 def acceleration(x, p):
@@ -55,9 +56,7 @@ def integrate(x, v, field, p):
     n = np.full(len(x), fixed) if fixed > 0 else np.ceil(reach / (0.5 * field.cell))
     n = np.clip(n, 1, p.max_substeps(field.cell))
     h = p.dt / n
-    kh = p.drag * h
-    decay = np.exp(-kh)
-    gain = np.where(kh < 1e-3, h * (1 - 0.5 * kh), (1 - decay) / max(p.drag, 1e-300))
+    decay, gain = exact_drag(p.drag, h)
     for i in range(int(n.max()) if len(n) else 0):
         active = (i < n)[:, None]
         a = acceleration(x, p)

@@ -11,6 +11,7 @@
 // the shares, so each emitter gets its rate's share of the particles.
 // numpy twin: es2particles/twins/fountain.py.
 #include "lib/life.glsl"
+#include "lib/drag.glsl"
 
 struct Particle {
     vec3 x;
@@ -69,10 +70,8 @@ Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
     }
     if (life_alive(life)) {
         // Semi-implicit Euler with drag in its exact exponential form (stable for any k dt).
-        float kh = u_drag * u_dt;
-        float decay = exp(-kh);
-        float gain = (kh < 1e-3) ? u_dt * (1.0 - 0.5 * kh) : (1.0 - decay) / u_drag;
-        p.v = clamp(p.v * decay + u_gravity * gain, -u_max_speed, u_max_speed);
+        vec2 drag = exact_drag(u_drag, u_dt);
+        p.v = clamp(p.v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);
         p.x += p.v * u_dt;
         // Out of the position range (beyond the floor's edge, above the top) a write would clamp
         // it onto an invisible wall: it dies and is re-emitted, as through the floor.

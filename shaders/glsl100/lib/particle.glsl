@@ -4,6 +4,7 @@
 // part of it (ES 2.0: one render target per pass). numpy twin: es2particles/twins/particle.py.
 #include "lib/state.glsl"
 #include "lib/life.glsl"
+#include "lib/drag.glsl"
 
 // MAX_SUBSTEPS: the loop bound, the most sub-steps any particle of the scene can need (the
 // scene computes it from its parameters and refuses those that would need more than 4096).
@@ -121,9 +122,7 @@ void integrate(inout vec2 x, inout vec2 v)
     float n = (u_fixed_substeps > 0.0) ? u_fixed_substeps : ceil(reach / (0.5 * u_cell));
     n = clamp(n, 1.0, float(MAX_SUBSTEPS));
     float h = u_dt / n;
-    float kh = u_drag * h;
-    float decay = exp(-kh);
-    float gain = (kh < 1e-3) ? h * (1.0 - 0.5 * kh) : (1.0 - decay) / u_drag;
+    vec2 drag = exact_drag(u_drag, h);
     for (int i = 0; i < MAX_SUBSTEPS; ++i) {
         if (float(i) >= n) {
             break;
@@ -132,7 +131,7 @@ void integrate(inout vec2 x, inout vec2 v)
         vec2 before = x;
         // The velocity range holds at every sub-step, not only when the velocity is stored: no
         // particle is then faster than its corner, which bounds the sub-steps any can need.
-        v = clamp(v * decay + a * gain, -u_max_speed, u_max_speed);
+        v = clamp(v * drag.x + a * drag.y, -u_max_speed, u_max_speed);
         x += v * h;
         collide(x, v, a, before);
         v = clamp(v, -u_max_speed, u_max_speed);

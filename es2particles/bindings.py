@@ -94,7 +94,7 @@ class Interface:
     def names(self):
         """Every name the generated lines declare (u_step is lib/state.glsl's: it counts for
         clashes, in ``owners``, but the library declares it)."""
-        return (set(self.owners) | {"v_uv", "u_state_size", "u_count"}) - {"u_step"}
+        return set(self.owners) - {"u_step"}
 
     @property
     def text(self):
@@ -198,12 +198,15 @@ def strip_comments(text):
 
 
 def declared_names(text):
-    """(kind, type, name) of every uniform/varying/attribute declared in ``text`` (comments
-    stripped first; several per statement and statements across lines included)."""
+    """(kind, type, name, line) of every uniform/varying/attribute declared in ``text`` (comments
+    stripped first; several per statement and statements across lines included; ``line`` is
+    1-based, where the statement starts)."""
+    clean = strip_comments(text)
     out = []
-    for match in DECLARATIONS.finditer(strip_comments(text)):
+    for match in DECLARATIONS.finditer(clean):
+        line = clean.count("\n", 0, match.start()) + 1
         for name in match.group(3).split(","):
-            out.append((match.group(1), match.group(2), name.strip().split("[")[0].strip()))
+            out.append((match.group(1), match.group(2), name.strip().split("[")[0].strip(), line))
     return out
 
 
@@ -225,18 +228,13 @@ def explain_redeclaration(source, interface, stage):
     declares for it (GLSL says only 'redeclaration'), else None. Run only then, so a declaration
     in an inactive #if branch is never taken for one."""
     generated = interface.names
-    clean = strip_comments(source.text)
-    for match in DECLARATIONS.finditer(clean):
-        line_number = clean.count("\n", 0, match.start()) + 1
+    for _, _, name, line_number in declared_names(source.text):
         file, number = source.origin(line_number)
-        if file == GENERATED:
-            continue
-        for name in (n.strip().split("[")[0].strip() for n in match.group(3).split(",")):
-            if name in generated:
-                text = source.text.splitlines()[line_number - 1].strip()
-                return (f"{file}:{number}: {stage} declares {name!r}, which the graph declares "
-                        f"for it from the pass's declaration; remove this line\n    "
-                        f"{number:4d} | {text}")
+        if file != GENERATED and name in generated:
+            text = source.text.splitlines()[line_number - 1].strip()
+            return (f"{file}:{number}: {stage} declares {name!r}, which the graph declares "
+                    f"for it from the pass's declaration; remove this line\n    "
+                    f"{number:4d} | {text}")
     return None
 
 

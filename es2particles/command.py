@@ -132,7 +132,7 @@ def _names(source):
     """(uniform name -> type declared anywhere, identifiers the non-generated code uses outside
     declarations). Comments are stripped across lines; several declarations per statement and
     statements across lines count."""
-    declared = {name: glsl_type for kind, glsl_type, name in declared_names(source.text)
+    declared = {name: glsl_type for kind, glsl_type, name, _ in declared_names(source.text)
                 if kind == "uniform"}
     code = strip_comments(source.text)
     code = re.sub(r"\b(?:uniform|varying|attribute)\b[^;]*;",

@@ -129,12 +129,12 @@ class Plan:
             count = f"{n}" if parts == 1 else f"{parts} parts x {n}"
             size = ""
             if texel_count is not None:
-                size = f", {_bytes(n * parts * texel_count * bytes_per_texel(q.format_in(fmt)))}"
+                size = f", {format_bytes(n * parts * texel_count * bytes_per_texel(q.format_in(fmt)))}"
             pinned = f", always {q.storage}" if q.storage else ""
             lines.append(f"  {name} ({q.components} components{pinned}): {count} ({why}{size})")
         for name, data in self.textures.items():
             lines.append(f"  scene texture {name}: {data.shape[1]}x{data.shape[0]} {data.dtype}, "
-                         f"{_bytes(data.nbytes)}")
+                         f"{format_bytes(data.nbytes)}")
         left = [f"pass {p.name}" for p in self.left_out_passes]
         left += [f"quantity {q}" for q in self.left_out_quantities]
         left += [f"texture {t}" for t in self.left_out_textures]
@@ -145,7 +145,7 @@ class Plan:
         return "\n".join(self.describe())
 
 
-def _bytes(n):
+def format_bytes(n):
     for unit in ("bytes", "KiB", "MiB", "GiB"):
         if n < 1024 or unit == "GiB":
             return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.3g} {unit}"

@@ -13,7 +13,7 @@ import numpy as np
 from .command import FullscreenCommand
 from .context import read_rgb
 from .errors import check_range
-from .graph import _bytes
+from .graph import format_bytes
 from .ramps import load_ramp
 
 
@@ -140,14 +140,14 @@ class PostChain:
         w, h = self.size
         ramp = f"gradient map '{self.gradient}'" if self.gradient is not None else "grey (no gradient map)"
         under = " over the scene's objects" if "u_background" in self.inputs else ""
-        lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h} ({_bytes(4 * w * h)})"]
+        lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h} ({format_bytes(4 * w * h)})"]
         if self.bloom is not None:
             b = self.bloom
             level_bytes = sum(3 * 4 * max(1, w // d) * max(1, h // d) for d in (2, 4))
             lines.append(f"bloom: bright pass (threshold {b.threshold:g}) + blur x/y at "
                          f"{w // 2}x{h // 2} and {w // 4}x{h // 4} (sigma {b.radius:g}), "
                          f"composite (intensity {b.intensity:g}); rgba8 targets "
-                         f"{_bytes(level_bytes + 4 * w * h)}")
+                         f"{format_bytes(level_bytes + 4 * w * h)}")
         return lines
 
     def left_out(self):

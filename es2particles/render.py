@@ -12,7 +12,7 @@ import numpy as np
 from .bindings import compile_checked, stage_interface
 from .context import ProgramValues, bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
-from .graph import _bytes
+from .graph import format_bytes
 from .shaders import expand
 
 # Accumulation formats in order of preference: float ones do not saturate, and one channel is a
@@ -153,7 +153,7 @@ class PointRenderer:
         w, h = self.size
         return (f"render: {self.layout.count} points, vertex texture fetch of "
                 f"{' and '.join(self.reads)}, additive blend -> density {self.format_note} "
-                f"{w}x{h} ({_bytes(w * h * bytes_per_texel(self.format))})")
+                f"{w}x{h} ({format_bytes(w * h * bytes_per_texel(self.format))})")
 
     @property
     def mean_density(self):

@@ -10,7 +10,7 @@ import numpy as np
 from .bindings import pass_interface, uniform_value
 from .command import FullscreenCommand
 from .errors import Es2ParticlesError, ParameterError, ShaderError, check_range
-from .state import Layout, StateBuffer
+from .state import Layout, StateBuffer, per_component
 
 FORMATS = ("rgba8", "rgba16f", "rgba32f")
 ROUNDINGS = ("nearest", "dither")
@@ -32,12 +32,11 @@ def resolve_format(ctx, fmt):
 
 def _box(name, lo, hi, components):
     """(lo, span) as float32 of the box [lo, hi] for a quantity of ``components``, checked."""
-    lo = np.broadcast_to(np.asarray(lo, dtype=float), (components,)) if np.ndim(lo) == 0 else np.asarray(lo, dtype=float)
-    hi = np.broadcast_to(np.asarray(hi, dtype=float), (components,)) if np.ndim(hi) == 0 else np.asarray(hi, dtype=float)
-    if lo.shape != (components,) or hi.shape != (components,) or not np.all(np.isfinite([lo, hi])) \
-            or not np.all(hi >= lo):
-        raise ParameterError(f"fill of {name!r}: lo and hi must be finite, {components} numbers "
-                             f"each with hi >= lo, got {lo.tolist()} and {hi.tolist()}")
+    lo = np.array(per_component(f"fill of {name!r}: lo", lo, components))
+    hi = np.array(per_component(f"fill of {name!r}: hi", hi, components))
+    if not np.all(hi >= lo):
+        raise ParameterError(f"fill of {name!r}: lo and hi must have hi >= lo, got "
+                             f"{lo.tolist()} and {hi.tolist()}")
     return lo.astype(np.float32), (hi - lo).astype(np.float32)
 
 

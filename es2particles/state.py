@@ -45,8 +45,8 @@ class Quantity:
         components = self.components if self.components is not None else (given[0] if given else 2)
         components = int(check_range(f"quantity {self.name!r} components", components, 1, 4,
                                      integer=True))
-        lo = _per_component(f"{self.name}.lo", self.lo, components)
-        hi = _per_component(f"{self.name}.hi", self.hi, components)
+        lo = per_component(f"{self.name}.lo", self.lo, components)
+        hi = per_component(f"{self.name}.hi", self.hi, components)
         for axis in range(components):
             if not hi[axis] > lo[axis]:
                 raise ParameterError(f"quantity {self.name!r}: hi must be greater than lo on each "
@@ -100,7 +100,8 @@ class Quantity:
         return self.parts(fmt) * bytes_per_texel(self.format_in(fmt))
 
 
-def _per_component(name, value, components):
+def per_component(name, value, components):
+    """``value`` (a number, or one per component) as ``components`` finite floats, checked."""
     values = [value] * components if np.ndim(value) == 0 else list(value)
     if len(values) != components:
         raise ParameterError(f"{name} must be a number or {components} numbers, got {value!r}")
@@ -252,8 +253,3 @@ class StateBuffer:
         return packing.state_decode(self.read_texels(), q.lo32, q.span32,
                                     self.fmt).astype(np.float64)
 
-    @property
-    def nbytes(self):
-        """GPU memory of every texture of this quantity."""
-        count = sum(len(pair) for pair in self.textures)
-        return count * self.layout.width * self.layout.height * bytes_per_texel(self.fmt)

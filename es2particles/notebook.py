@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError
-from .output import AnimationWriter, encode_png, save_image
+from .output import encode_png, save_animation, save_image
 
 
 class Picture:
@@ -47,10 +47,7 @@ class Animation:
         return self
 
     def save(self, path):
-        with AnimationWriter(path, self.fps) as writer:
-            for frame in self.frames:
-                writer.add(frame)
-            return writer.close()
+        return save_animation(self.frames, path, self.fps)
 
     def _encoded(self):
         try:

@@ -155,7 +155,7 @@ class AnimationWriter:
                            "duration": int(round(1000 / self.fps)), "loop": 0}
                 if self.format == "WEBP":
                     options.update(quality=90, method=4)
-                _atomic(self.path, lambda tmp: first.save(tmp, format=self.format, **options))
+                write_atomic(self.path, lambda tmp: first.save(tmp, format=self.format, **options))
         finally:
             self.abort()
         return self.path
@@ -181,11 +181,6 @@ class AnimationWriter:
 
 
 def write_atomic(path, write):
-    """Public name of the atomic writer: the report writes through it too."""
-    return _atomic(path, write)
-
-
-def _atomic(path, write):
     """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure.
     Missing folders on the way are made first."""
     path = Path(path)
@@ -248,7 +243,7 @@ def save_image(pixels, path, compress_level=1):
         raise ParameterError(f"an image must be an (h, w, 3) array with h, w >= 1, got shape "
                              f"{pixels.shape}")
     data = encode_png(pixels, compress_level)
-    return _atomic(path, lambda tmp: Path(tmp).write_bytes(data))
+    return write_atomic(path, lambda tmp: Path(tmp).write_bytes(data))
 
 
 def save_animation(frames, path, fps=30):
@@ -266,4 +261,4 @@ def save_state(arrays, path):
         with open(tmp, "wb") as handle:
             np.savez(handle, **{k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()})
 
-    return _atomic(path, write)
+    return write_atomic(path, write)

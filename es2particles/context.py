@@ -13,7 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import CapabilityError, ContextError
+from . import astc
+from .errors import CapabilityError, ContextError, ParameterError
 from .shaders import compile_program
 
 INSTALL_HINT = (
@@ -243,6 +244,38 @@ class Context:
         tex.repeat_x = tex.repeat_y = False
         return tex
 
+    def compressed_texture(self, compressed):
+        """A 2D texture holding :class:`~es2particles.astc.Compressed` ASTC blocks as they are,
+        NEAREST-sampled and clamped; :class:`CapabilityError` where the driver cannot take them.
+
+        moderngl's ``texture`` checks data against the uncompressed size, so an owned RGBA8
+        texture of that size is made and its level 0 replaced by glCompressedTexImage2D.
+        """
+        import moderngl
+
+        if not isinstance(compressed, astc.Compressed):
+            raise ParameterError(f"compressed must be an astc.Compressed (see astc.compress), got "
+                                 f"{type(compressed).__name__}")
+        reason = astc.unavailable(self, encode=False)
+        if reason:
+            raise CapabilityError(f"ASTC textures cannot be used: {reason}")
+        self.make_current()  # the upload is a raw GL call: it goes to the current context
+        upload = self._gl_function("glCompressedTexImage2D", ctypes.c_uint, ctypes.c_int,
+                                   ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                   ctypes.c_int, ctypes.c_char_p, required=True)
+        c = compressed
+        tex = self.own(self.mgl.texture((c.width, c.height), 4))
+        tex.use(0)
+        upload(GL_TEXTURE_2D, 0, c.internal_format, c.width, c.height, 0, c.nbytes, c.data)
+        error = self.mgl.error
+        if error != "GL_NO_ERROR":
+            self.free(tex)
+            raise CapabilityError(f"glCompressedTexImage2D of {c.width}x{c.height} ASTC "
+                                  f"{c.block[0]}x{c.block[1]} failed with {error}")
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
     def framebuffer(self, texture, depth=None):
         return self.own(self.mgl.framebuffer(color_attachments=[texture],
                                              depth_attachment=depth))
@@ -301,15 +334,21 @@ class Context:
         """glEnable/glDisable of a capability moderngl does not name."""
         self._gl_function(name, ctypes.c_uint)(cap)
 
-    def _gl_function(self, name, *argtypes):
+    def _gl_function(self, name, *argtypes, required=False):
         """A GL entry point moderngl has no call for, through moderngl's own function loader
-        (loaded once); where that loader is not there, a no-op (these calls change speed or
-        state moderngl's drivers already have, never results)."""
+        (loaded once). Where that loader is not there: a no-op for calls that change speed or
+        state moderngl's drivers already have, never results; :class:`CapabilityError` for a
+        ``required`` one, whose effect is the result (an upload)."""
         if name not in self._gl_calls:
             loader = getattr(self.mgl.mglo, "_context", None)
             address = loader.load_opengl_function(name) if loader is not None else 0
             self._gl_calls[name] = (ctypes.CFUNCTYPE(None, *argtypes)(address) if address
-                                    else (lambda *args: None))
+                                    else None)
+        if self._gl_calls[name] is None:
+            if required:
+                raise CapabilityError(f"the GL function {name} cannot be loaded through "
+                                      f"moderngl on the {self.backend} back-end")
+            return lambda *args: None
         return self._gl_calls[name]
 
     def vertex_array(self, program, content):
@@ -422,6 +461,7 @@ def _probe_store_rule(ctx):
 
 BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
 GL_POINT_SPRITE = 0x8861
+GL_TEXTURE_2D = 0x0DE1
 
 
 class ProgramValues:
@@ -463,6 +503,9 @@ class Group:
 
     def texture(self, *args, **kwargs):
         return self._keep(self.ctx.texture(*args, **kwargs))
+
+    def compressed_texture(self, compressed):
+        return self._keep(self.ctx.compressed_texture(compressed))
 
     def framebuffer(self, texture, depth=None):
         return self._keep(self.ctx.framebuffer(texture, depth))

@@ -25,8 +25,10 @@ BLENDS = ("add", "over")
 
 @dataclass(frozen=True)
 class Mesh:
-    """An opaque mesh in world coordinates: triangles (n, 3, 3) with normals (n, 3, 3), a colour,
-    and for a floor a checker of ``colour2`` in cells of ``checker`` units."""
+    """An opaque mesh: triangles (n, 3, 3) wound counter-clockwise seen from outside, with normals
+    (n, 3, 3), a colour, and for a floor a checker of ``colour2`` in cells of ``checker`` units.
+    In world coordinates, unless ``moves``: then in object coordinates, placed by the model matrix
+    given to :meth:`SpriteRenderer.draw` each frame (a spinning or swaying obstacle)."""
 
     triangles: np.ndarray
     normals: np.ndarray
@@ -35,6 +37,7 @@ class Mesh:
     checker: float = 0.0
     uvs: np.ndarray = None  # (n, 3, 2) texture coordinates, with ``texture``
     texture: np.ndarray = None  # (h, w, 4) uint8, multiplied into the colour
+    moves: bool = False
 
 
 def floor(half_size=6.0, cell=1.0, colour=(0.32, 0.34, 0.40), colour2=(0.22, 0.23, 0.28)):
@@ -82,19 +85,124 @@ def crate_texture(size=64):
     return (rgba * 255).round().astype(np.uint8)
 
 
+def _grid(points, normals, colour):
+    """The mesh of a (rows + 1, cols + 1, 3) grid of points and their normals, two triangles per
+    cell; the outward side is the one cross(along a row, down a column) points to."""
+    def cells(g):
+        a, b, c, d = g[:-1, :-1], g[:-1, 1:], g[1:, 1:], g[1:, :-1]
+        return np.stack([np.stack([a, b, c], -2), np.stack([a, c, d], -2)], 2).reshape(-1, 3, 3)
+
+    return Mesh(cells(points), cells(normals), colour)
+
+
+def _directions(theta, phi):
+    """Unit vectors at polar angles ``theta`` from +y and azimuths ``phi`` from +x towards +z, as
+    a (len(theta), len(phi), 3) grid wound outward by :func:`_grid`."""
+    s = np.sin(theta)[:, None]
+    return np.stack([s * np.cos(phi), np.cos(theta)[:, None] * np.ones_like(phi),
+                     s * np.sin(phi)], -1)
+
+
+def _rotation(axis, name):
+    """A rotation taking +y to the unit vector along ``axis`` (the identity for +y), so a shape
+    built around y can be turned to any orientation."""
+    w = np.asarray(axis, float)
+    if w.shape != (3,) or not np.all(np.isfinite(w)) or not np.linalg.norm(w) > 0:
+        raise ParameterError(f"{name} must be a finite nonzero 3-vector, got {axis!r}")
+    w = w / np.linalg.norm(w)
+    helper = np.eye(3)[0] if abs(w[0]) < 0.9 else np.eye(3)[2]
+    u = helper - helper.dot(w) * w
+    u /= np.linalg.norm(u)
+    return np.stack([u, w, np.cross(u, w)], 1)  # columns: where x, y, z go
+
+
+def _point(value, name):
+    v = np.asarray(value, float)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ParameterError(f"{name} must be three finite numbers, got {value!r}")
+    return v
+
+
+def _divisions(name, value, lo):
+    return int(check_range(name, value, lo, 4096, integer=True))
+
+
 def sphere(centre, radius, colour=(0.45, 0.55, 0.75), rings=16, segments=32):
     """A latitude-longitude sphere with smooth normals."""
-    theta = np.linspace(0, np.pi, rings + 1)
-    phi = np.linspace(0, 2 * np.pi, segments + 1)
-    grid = np.stack([np.sin(theta)[:, None] * np.cos(phi), np.cos(theta)[:, None] * np.ones_like(phi),
-                     np.sin(theta)[:, None] * np.sin(phi)], -1)
-    quads = []
-    for i in range(rings):
-        for j in range(segments):
-            a, b, c, d = grid[i, j], grid[i + 1, j], grid[i + 1, j + 1], grid[i, j + 1]
-            quads += [[a, b, c], [a, c, d]]
-    normals = np.array(quads)
-    return Mesh(np.asarray(centre, float) + radius * normals, normals, colour)
+    normals = _directions(np.linspace(0, np.pi, rings + 1), np.linspace(0, 2 * np.pi, segments + 1))
+    return _grid(np.asarray(centre, float) + radius * normals, normals, colour)
+
+
+def capsule(a, b, radius, colour=(0.45, 0.55, 0.75), rings=8, segments=32):
+    """A closed capsule, the points within ``radius`` of the segment ``a``-``b``: a cylinder and
+    two hemispheres of ``rings`` rings each, with smooth normals (the collision scene's pill).
+
+    Built around y (the hemisphere about ``b`` first, then the one about ``a``; the cylinder is
+    the band between them) and turned onto ``b - a``; ``a == b`` gives a sphere.
+    """
+    a, b = _point(a, "capsule a"), _point(b, "capsule b")
+    radius = check_range("capsule radius", radius, 1e-9)
+    rings, segments = _divisions("capsule rings", rings, 1), _divisions("capsule segments",
+                                                                          segments, 3)
+    axis = b - a if np.any(b != a) else (0.0, 1.0, 0.0)
+    half = np.linspace(0, np.pi / 2, rings + 1)
+    local = _directions(np.concatenate([half, half + np.pi / 2]),
+                        np.linspace(0, 2 * np.pi, segments + 1))
+    normals = local @ _rotation(axis, "capsule b - a").T
+    ends = np.where(np.arange(2 * rings + 2)[:, None, None] <= rings, b, a)
+    return _grid(ends + radius * normals, normals, colour)
+
+
+def torus(centre, major, minor, axis=(0.0, 1.0, 0.0), colour=(0.45, 0.55, 0.75), rings=48,
+          segments=16):
+    """A torus around ``axis`` through ``centre``: a tube of radius ``minor`` about a circle of
+    radius ``major``, ``rings`` steps around the axis and ``segments`` around the tube, with
+    smooth normals."""
+    centre = _point(centre, "torus centre")
+    major = check_range("torus major radius", major, 1e-9)
+    minor = check_range("torus minor radius", minor, 1e-9, major)
+    rings, segments = _divisions("torus rings", rings, 3), _divisions("torus segments", segments, 3)
+    phi = np.linspace(0, 2 * np.pi, rings + 1)[:, None]  # around the axis: the grid's rows
+    beta = np.linspace(0, 2 * np.pi, segments + 1)  # around the tube, outward first: its columns
+    radial = np.stack([np.cos(phi), np.zeros_like(phi), np.sin(phi)], -1)  # (rings + 1, 1, 3)
+    local = np.cos(beta)[:, None] * radial + np.sin(beta)[:, None] * np.array([0.0, 1.0, 0.0])
+    rotation = _rotation(axis, "torus axis")
+    normals = local @ rotation.T
+    return _grid(centre + (major * radial) @ rotation.T + minor * normals, normals, colour)
+
+
+def from_triangles(vertices, faces, colour=(0.6, 0.6, 0.6)):
+    """A mesh of an indexed triangle mesh (what trimesh makes of an OBJ, STL or PLY file):
+    ``vertices`` (n, 3), ``faces`` (m, 3) vertex indices wound counter-clockwise from outside.
+
+    Each vertex's normal is the average of its faces' normals weighted by their areas, so one
+    sliver does not tilt it; where that average vanishes (a vertex shared by the two sides of a
+    sheet), each corner keeps its face's normal.
+    """
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces)
+    if v.ndim != 2 or v.shape[1] != 3 or not len(v) or not np.all(np.isfinite(v)):
+        raise ParameterError(f"vertices must be a non-empty (n, 3) array of finite numbers, got "
+                             f"shape {v.shape}")
+    if f.ndim != 2 or f.shape[1] != 3 or not len(f) or f.dtype.kind not in "iu":
+        raise ParameterError(f"faces must be a non-empty (m, 3) array of integers, got shape "
+                             f"{f.shape} of {f.dtype}")
+    if f.min() < 0 or f.max() >= len(v):
+        raise ParameterError(f"faces must index vertices in [0, {len(v) - 1}], got "
+                             f"[{f.min()}, {f.max()}]")
+    triangles = v[f]
+    weighted = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    area = np.linalg.norm(weighted, axis=1, keepdims=True)  # twice the area
+    face = np.divide(weighted, area, out=np.zeros_like(weighted), where=area > 0)
+    total, scale = np.zeros_like(v), np.zeros(len(v))
+    for k in range(3):
+        np.add.at(total, f[:, k], weighted)
+        np.add.at(scale, f[:, k], area[:, 0])
+    length = np.linalg.norm(total, axis=1)
+    smooth = length > 1e-9 * scale  # else the faces about the vertex cancel
+    vertex = np.divide(total, length[:, None], out=np.zeros_like(total), where=smooth[:, None])
+    normals = np.where(smooth[f][..., None], vertex[f], face[:, None, :])
+    return Mesh(triangles, normals, colour)
 
 
 # --- sprite textures --------------------------------------------------------------------------
@@ -130,6 +238,28 @@ def load_sprite(spec):
 
 
 # --- the renderer -----------------------------------------------------------------------------
+
+IDENTITY = tuple(float(v) for v in np.eye(4).ravel())
+
+
+def model_uniform(model):
+    """A model matrix (4x4 numpy, column vectors: world = model @ [x, y, z, 1]) as the 16 floats
+    of a GLSL mat4, column-major like ``Camera.uniform``. Only rotation, uniform scale and
+    translation: the mesh shader turns normals by the same matrix, right only for those."""
+    try:
+        m = np.asarray(model, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"model must be a 4x4 matrix, got {model!r}") from None
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ParameterError(f"model must be a finite 4x4 matrix, got shape {m.shape}")
+    gram = m[:3, :3].T @ m[:3, :3]
+    scale = np.trace(gram) / 3  # the squared scale
+    if not (scale > 0 and np.allclose(gram, scale * np.eye(3), rtol=0, atol=1e-6 * scale)
+            and np.array_equal(m[3], [0, 0, 0, 1])):
+        raise ParameterError("model must be a rotation, a uniform scale and a translation "
+                             "(last row 0 0 0 1): normals are turned by the same matrix")
+    return tuple(float(v) for v in m.T.ravel())
+
 
 class SpriteRenderer:
     """Opaque meshes, then one point sprite per particle, into an RGBA8 image with depth.
@@ -241,7 +371,7 @@ class SpriteRenderer:
         if mesh.colour2 is not None:
             state.set("u_colour2", tuple(float(v) for v in mesh.colour2))
             state.set("u_checker", float(mesh.checker))
-        return state, vao, texture
+        return state, vao, texture, mesh.moves
 
     def describe(self):
         w, h = self.size
@@ -250,17 +380,23 @@ class SpriteRenderer:
                 f"writes), vertex texture fetch of {' and '.join(self.reads)} -> rgba8 {w}x{h} "
                 f"with depth")
 
-    def draw(self, buffers, camera):
-        """Draw the meshes and the particles seen from ``camera``; returns the colour texture."""
+    def draw(self, buffers, camera, model=None):
+        """Draw the meshes and the particles seen from ``camera``; returns the colour texture.
+
+        ``model`` (4x4, object to world for column vectors: rotation, uniform scale, translation)
+        places this frame's moving meshes (``Mesh.moves``); the others stay in world coordinates.
+        """
+        moved = IDENTITY if model is None else model_uniform(model)
         self.ctx.make_current()
         aspect = self.size[0] / self.size[1]
         view_projection = camera.uniform(aspect)
         with self.ctx.scope(self.framebuffer, depth_test=True):
             self.framebuffer.clear(*self.background, 1.0, depth=1.0)
-            for state, vao, texture in self.meshes:
+            for state, vao, texture, moves in self.meshes:
                 if texture is not None:
                     texture.use(0)
                 state.set("u_view_projection", view_projection)
+                state.set("u_model", moved if moves else IDENTITY)
                 vao.render(moderngl.TRIANGLES)
         self.stage.bind(buffers)
         self.sprite.use(self.sprite_unit)

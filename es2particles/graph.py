@@ -133,8 +133,13 @@ class Plan:
             pinned = f", always {q.storage}" if q.storage else ""
             lines.append(f"  {name} ({q.components} components{pinned}): {count} ({why}{size})")
         for name, data in self.textures.items():
-            lines.append(f"  scene texture {name}: {data.shape[1]}x{data.shape[0]} {data.dtype}, "
-                         f"{format_bytes(data.nbytes)}")
+            if hasattr(data, "block"):  # astc.Compressed
+                kind = f"ASTC {data.block[0]}x{data.block[1]} ({data.bits_per_texel:.2f} bits a texel)"
+                lines.append(f"  scene texture {name}: {data.width}x{data.height} {kind}, "
+                             f"{format_bytes(data.nbytes)}")
+            else:
+                lines.append(f"  scene texture {name}: {data.shape[1]}x{data.shape[0]} "
+                             f"{data.dtype}, {format_bytes(data.nbytes)}")
         left = [f"pass {p.name}" for p in self.left_out_passes]
         left += [f"quantity {q}" for q in self.left_out_quantities]
         left += [f"texture {t}" for t in self.left_out_textures]
@@ -171,12 +176,18 @@ class PassGraph:
 
     def texture(self, name, data):
         """Declare a scene texture: ``data`` is an (h, w, 4) uint8 or float32 array (a collision
-        field, a ramp). The simulation uploads it, samples it NEAREST and owns it; a pass that
-        lists ``name`` in ``textures=`` samples it as ``u_<name>``."""
+        field, a ramp), or :class:`~es2particles.astc.Compressed` blocks. The simulation uploads
+        it, samples it NEAREST and owns it; a pass that lists ``name`` in ``textures=`` samples it
+        as ``u_<name>``."""
+        from .astc import Compressed
+
         if not (isinstance(name, str) and name.isidentifier()):
             raise ParameterError(f"texture name must be a GLSL identifier, got {name!r}")
         if name in self.textures:
             raise GraphError(f"texture {name!r} is declared twice")
+        if isinstance(data, Compressed):
+            self.textures[name] = data
+            return data
         data = np.asarray(data)
         if data.ndim != 3 or data.shape[2] != 4 or data.dtype not in (np.uint8, np.float32):
             raise ParameterError(f"texture {name!r}: data must be an (h, w, 4) uint8 or float32 "

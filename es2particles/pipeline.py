@@ -109,7 +109,8 @@ class Pipeline:
         """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): the
         particles, then the post passes of a 2D scene; returns the final texture."""
         if self.post is None:
-            self.final = self.renderer.draw(self.sim.buffers, self.scene.camera_at(frame, frames))
+            self.final = self.renderer.draw(self.sim.buffers, self.scene.camera_at(frame, frames),
+                                            self.scene.model_at(self.sim.steps_done))
             return self.final
         if not self._ordered:  # once: positions repeat from frame to frame (see render.py)
             position = self.sim.buffers["position"]
@@ -148,6 +149,7 @@ class Pipeline:
                  "simulation step:"]
         lines += ["  " + line for line in sim.describe()]
         lines += ["  " + line for line in self.scene.describe()]
+        lines += ["  " + line for line in self.scene.measured(self.ctx)]
         lines.append("frame:")
         lines.append("  " + self.renderer.describe())
         if self.post is not None:

@@ -130,6 +130,9 @@ class Simulation:
                 self.buffers[name] = StateBuffer(self.group, quantity, self.layout,
                                                  quantity.format_in(self.fmt), n)
             for name, data in self.plan.textures.items():
+                if not isinstance(data, np.ndarray):  # astc.Compressed blocks
+                    self.textures[name] = self.group.compressed_texture(data)
+                    continue
                 h, w = data.shape[:2]
                 fmt = "rgba8" if data.dtype == np.uint8 else "rgba32f"
                 self.textures[name] = self.group.texture((w, h), fmt, data=data.tobytes())

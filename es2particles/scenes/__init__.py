@@ -11,13 +11,14 @@ from .attractor import Attractor
 from .base import Defaults, Fill, Scene
 from .clifford import Clifford
 from .collision import Collision
+from .collision3d import Collision3D
 from .dejong import DeJong
 from .fountain import Fountain
 
 ENTRY_POINT_GROUP = "es2particles.scenes"
-BUILT_IN = (DeJong, Clifford, Collision, Fountain)
+BUILT_IN = (DeJong, Clifford, Collision, Fountain, Collision3D)
 
-__all__ = ["Attractor", "Clifford", "Collision", "DeJong", "Defaults", "Fill", "Fountain", "Scene",
+__all__ = ["Attractor", "Clifford", "Collision", "Collision3D", "DeJong", "Defaults", "Fill", "Fountain", "Scene",
            "installed_scenes", "ENTRY_POINT_GROUP"]
 
 

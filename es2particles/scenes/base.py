@@ -77,6 +77,10 @@ class Scene:
         """Extra lines for the printed plan."""
         return []
 
+    def measured(self, ctx):
+        """Lines the printed plan measures on the context (slow figures), after describe()."""
+        return []
+
     # -- 3D scenes (render = "sprites") ------------------------------------------------------
 
     def meshes(self):
@@ -86,6 +90,11 @@ class Scene:
     def camera_at(self, frame, frames):
         """The :class:`~es2particles.camera.Camera` of frame ``frame`` of ``frames``."""
         raise NotImplementedError
+
+    def model_at(self, step):
+        """The moving meshes' model matrix (4x4, rest pose to world) after ``step`` simulation
+        steps, or None where nothing moves."""
+        return None
 
     def renderer_options(self):
         """Extra keyword arguments of the sprite renderer (blend, sprite, ...)."""

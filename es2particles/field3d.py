@@ -1,0 +1,464 @@
+"""The 3D collision field, as the ARM chapter's: signed distance and unit normal per voxel of a
+box around an object, in a 2D slice atlas (ES 2.0 has no 3D textures).
+
+The field lives in the object's own space (its shapes at rest, the pivot at the origin); the
+shader brings a particle into that space with the object's pose of the step and the normal back
+out, so the object may move and turn. Voxels are cubes; ``resolution`` of them span the box's
+longest side. Slices of constant z are tiled in rows of the atlas, each tile padded to a multiple
+of ``tile_multiple`` texels (a compression block never straddles two slices).
+
+Three encodings of a voxel (see ``shaders/glsl100/lib/field3d.glsl``):
+
+- ``packed`` (RGBA8, the ES 2.0 baseline): RG the distance in 16 bits (high, low bytes), BA the
+  normal octahedral-encoded in two bytes (127 e + 127: 0 and +-1 exact);
+- ``float`` (RGBA32F): distance and the three normal components;
+- ``smooth`` (RGBA8 meant for lossy blocks such as ASTC): R the distance in 8 bits, GB the
+  octahedral normal, A 255. The high/low byte pair of ``packed`` cannot survive lossy blocks (an
+  error of one in the high byte is 255 codes of the distance); each channel of ``smooth`` is a
+  smooth function of place, which block compression keeps.
+
+The lookup is NEAREST with the distance carried from the voxel's centre along its normal (one
+fetch per sub-step, as the chapter's single texture access; exact for flat faces). Interpolation
+would take eight fetches across two slices and cannot filter a packed byte pair in hardware.
+
+Shapes are analytic (sphere, box, capsule, torus, their unions; exact distance and normal at each
+voxel centre) or triangle meshes (OBJ, STL, PLY through trimesh, the ``mesh`` extra): a mesh is
+made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh), then
+an exact Euclidean distance transform (scipy) gives distance and normal, as the 2D masks, so a
+thin shell is at least one voxel thick and does not leak.
+"""
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ParameterError, check_range
+from .twins import pack as packing
+
+ENCODINGS = ("packed", "float", "smooth")
+FAR_VOXELS = 3  # outside, distances are held up to this many voxels; beyond, "far"
+
+
+# --- analytic shapes: signed distance and unit normal, float64 --------------------------------
+
+def _unit(v, fallback=(0.0, 1.0, 0.0)):
+    n = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.where(n > 1e-12, v / np.where(n > 1e-12, n, 1), np.asarray(fallback, float))
+
+
+@dataclass(frozen=True)
+class Sphere:
+    centre: tuple
+    radius: float
+
+    def sdf(self, p):
+        q = p - np.asarray(self.centre, float)
+        return np.linalg.norm(q, axis=-1) - self.radius, _unit(q)
+
+    def bounds(self):
+        c = np.asarray(self.centre, float)
+        return c - self.radius, c + self.radius
+
+    def half_thickness(self):
+        return self.radius
+
+
+@dataclass(frozen=True)
+class Box:
+    centre: tuple
+    half_size: tuple
+
+    def sdf(self, p):
+        q = p - np.asarray(self.centre, float)
+        d = np.abs(q) - np.asarray(self.half_size, float)
+        outside = np.maximum(d, 0)
+        out_len = np.linalg.norm(outside, axis=-1)
+        sign = np.where(q >= 0, 1.0, -1.0)
+        # Inside: along the axis of the nearest face; outside: along the offset from the box.
+        face = np.argmax(d, axis=-1)[..., None] == np.arange(3)
+        inside = np.where(face, sign, 0.0)
+        normal = np.where((out_len > 0)[..., None], _unit(outside * sign), inside)
+        return out_len + np.minimum(d.max(axis=-1), 0), normal
+
+    def bounds(self):
+        c, h = np.asarray(self.centre, float), np.asarray(self.half_size, float)
+        return c - h, c + h
+
+    def half_thickness(self):
+        return min(self.half_size)
+
+
+@dataclass(frozen=True)
+class Capsule:
+    a: tuple
+    b: tuple
+    radius: float
+
+    def sdf(self, p):
+        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
+        ab = b - a
+        t = np.clip(((p - a) @ ab) / max(ab @ ab, 1e-300), 0, 1)
+        q = p - (a + t[..., None] * ab)
+        # On the axis the normal is undefined: any direction across it.
+        across = _unit(np.cross(ab, (1.0, 0.0, 0.0) if abs(ab[0]) < 0.9 * np.linalg.norm(ab)
+                                else (0.0, 1.0, 0.0)))
+        return np.linalg.norm(q, axis=-1) - self.radius, _unit(q, across)
+
+    def bounds(self):
+        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
+        return np.minimum(a, b) - self.radius, np.maximum(a, b) + self.radius
+
+    def half_thickness(self):
+        return self.radius
+
+
+@dataclass(frozen=True)
+class Torus:
+    """A torus around the y axis through ``centre``: ``major`` radius of the ring, ``minor`` of
+    the tube."""
+
+    centre: tuple
+    major: float
+    minor: float
+
+    def sdf(self, p):
+        q = p - np.asarray(self.centre, float)
+        radial = np.hypot(q[..., 0], q[..., 2])
+        # The nearest point of the ring (the tube's centre line), then out from it.
+        ring = np.stack([q[..., 0], np.zeros_like(radial), q[..., 2]], -1)
+        ring = _unit(ring, (1.0, 0.0, 0.0)) * self.major
+        offset = q - ring
+        return np.hypot(radial - self.major, q[..., 1]) - self.minor, _unit(offset)
+
+    def bounds(self):
+        c, r = np.asarray(self.centre, float), self.major + self.minor
+        return c - (r, self.minor, r), c + (r, self.minor, r)
+
+    def half_thickness(self):
+        return self.minor
+
+
+SHAPES = {"sphere": (Sphere, "CX,CY,CZ,R"), "box": (Box, "CX,CY,CZ,HX,HY,HZ"),
+          "capsule": (Capsule, "AX,AY,AZ,BX,BY,BZ,R"), "torus": (Torus, "CX,CY,CZ,MAJOR,MINOR")}
+
+
+def union(parts):
+    """Union of shapes: the smallest distance, with the normal of the shape that gives it."""
+    dist, normal = parts[0]
+    for d, n in parts[1:]:
+        closer = d < dist
+        dist = np.where(closer, d, dist)
+        normal = np.where(closer[..., None], n, normal)
+    return dist, normal
+
+
+# --- triangle meshes: a solid voxel mask, then an exact distance transform ----------------------
+
+@dataclass(frozen=True, eq=False)
+class TriangleMesh:
+    """An indexed triangle mesh in world units (loaded by :func:`load_mesh`)."""
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    name: str = "mesh"
+
+    def bounds(self):
+        return self.vertices.min(axis=0), self.vertices.max(axis=0)
+
+    def solid(self, lo, voxel, cells):
+        """Boolean (nz, ny, nx) mask: every voxel the surface touches, and the inside of each
+        closed part (the holes the surface voxels enclose)."""
+        from scipy import ndimage
+        import trimesh
+
+        points, _ = trimesh.remesh.subdivide_to_size(self.vertices, self.faces,
+                                                     max_edge=voxel / 4, max_iter=40)
+        index = np.floor((points - lo) / voxel).astype(int)
+        index = index[np.all((index >= 0) & (index < cells), axis=1)]
+        mask = np.zeros(cells[::-1], bool)
+        mask[index[:, 2], index[:, 1], index[:, 0]] = True
+        return ndimage.binary_fill_holes(mask)
+
+    def __repr__(self):
+        return f"TriangleMesh({self.name!r}, {len(self.faces)} triangles)"
+
+
+def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
+    """A mesh file (OBJ, STL, PLY, ...) scaled so that its longest side is ``size`` and moved so
+    that its bounding box's centre is ``centre``."""
+    try:
+        import scipy  # noqa: F401
+        import trimesh
+    except ImportError:
+        raise ParameterError("mesh shapes need trimesh and scipy: pip install "
+                             "'es2particles[mesh]'") from None
+    path = Path(path)
+    if not path.is_file():
+        raise ParameterError(f"mesh file {str(path)!r} does not exist")
+    try:
+        mesh = trimesh.load(path, force="mesh")
+    except Exception as exc:  # trimesh raises many kinds for unreadable files
+        raise ParameterError(f"mesh file {str(path)!r} could not be read: {exc}") from None
+    if len(mesh.faces) == 0:
+        raise ParameterError(f"mesh file {str(path)!r} has no triangles")
+    check_range("mesh size", size, 1e-3, 1e3)
+    v = np.asarray(mesh.vertices, float)
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    extent = float((hi - lo).max())
+    if not extent > 0:
+        raise ParameterError(f"mesh file {str(path)!r} is flat to a point")
+    v = (v - (lo + hi) / 2) * (size / extent) + np.asarray(centre, float)
+    return TriangleMesh(v, np.asarray(mesh.faces, np.int64), path.name)
+
+
+def mask_field(solid, voxel):
+    """Signed distance and unit normal (float64) at voxel centres of a solid mask (nz, ny, nx),
+    by an exact Euclidean distance transform. As the 2D masks (field.mask_sdf): the surface lies
+    half a voxel from the nearest voxel of the other kind, and where the distance's gradient
+    vanishes (medial axes of thin walls) the normal is the direction to that voxel."""
+    from scipy import ndimage
+
+    d_in, to_empty = ndimage.distance_transform_edt(solid, return_indices=True)
+    d_out, to_solid = ndimage.distance_transform_edt(~solid, return_indices=True)
+    dist = np.where(solid, -(d_in - 0.5), d_out - 0.5)
+    grid = np.indices(solid.shape)
+    flood = np.where(solid, to_empty - grid, grid - to_solid)  # (3, nz, ny, nx), z y x order
+    flood = np.moveaxis(flood[::-1], 0, -1).astype(float)  # -> x y z last
+    gz, gy, gx = np.gradient(dist)
+    gradient = np.stack([gx, gy, gz], -1)
+    degenerate = np.linalg.norm(gradient, axis=-1) < 0.5
+    normal = _unit(np.where(degenerate[..., None], flood, gradient))
+    return dist * voxel, normal
+
+
+# --- octahedral normals --------------------------------------------------------------------------
+
+def octahedral_encode(n):
+    """Unit vectors (..., 3) to (..., 2) in [-1, 1]: projected onto the octahedron |x|+|y|+|z| = 1,
+    the lower half folded out over the corners."""
+    n = np.asarray(n, float)
+    p = n / np.sum(np.abs(n), axis=-1, keepdims=True)
+    sign = np.where(p[..., :2] >= 0, 1.0, -1.0)
+    folded = (1 - np.abs(p[..., 1::-1])) * sign
+    return np.where((p[..., 2] < 0)[..., None], folded, p[..., :2])
+
+
+def octahedral_decode(e):
+    """Twin of ``octahedral_decode`` in lib/field3d.glsl, float32."""
+    e = np.asarray(e, np.float32)
+    z = np.float32(1) - np.abs(e[..., 0]) - np.abs(e[..., 1])
+    sign = np.where(e >= 0, np.float32(1), np.float32(-1))
+    xy = np.where((z < 0)[..., None], (np.float32(1) - np.abs(e[..., ::-1])) * sign, e)
+    n = np.concatenate([xy, z[..., None]], -1).astype(np.float32)
+    return n / np.linalg.norm(n, axis=-1, keepdims=True)
+
+
+def normal_bytes(n):
+    """Octahedral normal as two bytes, 127 e + 127 (0 and +-1 exact)."""
+    return (np.round(octahedral_encode(n) * 127) + 127).clip(0, 254).astype(np.uint8)
+
+
+# --- the field -------------------------------------------------------------------------------
+
+def parse_shapes(spec, mesh_centre=(0.0, 1.0, 0.0), mesh_size=2.0):
+    """Shapes from the command line: ``sphere:CX,CY,CZ,R``, ``box:...``, ``capsule:...``,
+    ``torus:...``, or a mesh file, joined by ``+`` into a union."""
+    shapes = []
+    for part in spec.split("+"):
+        part = part.strip()
+        kind, _, numbers = part.partition(":")
+        if kind in SHAPES:
+            cls, form = SHAPES[kind]
+            try:
+                values = [float(v) for v in numbers.split(",")] if numbers else []
+            except ValueError:
+                values = None
+            if values is None or len(values) != form.count(",") + 1:
+                raise ParameterError(f"shape {kind} is {kind}:{form} (numbers), got {part!r}")
+            for v in values:
+                check_range(f"shape {kind}", v, -1e3, 1e3)
+            if cls is Box:
+                shapes.append(Box(tuple(values[:3]), tuple(values[3:])))
+            elif cls is Capsule:
+                shapes.append(Capsule(tuple(values[:3]), tuple(values[3:6]), values[6]))
+            elif cls is Torus:
+                shapes.append(Torus(tuple(values[:3]), values[3], values[4]))
+            else:
+                shapes.append(Sphere(tuple(values[:3]), values[3]))
+        elif Path(part).suffix.lower() in (".obj", ".stl", ".ply", ".off", ".glb", ".gltf"):
+            shapes.append(load_mesh(part, mesh_centre, mesh_size))
+        else:
+            raise ParameterError(
+                "shape must be sphere:CX,CY,CZ,R, box:CX,CY,CZ,HX,HY,HZ, "
+                "capsule:AX,AY,AZ,BX,BY,BZ,R, torus:CX,CY,CZ,MAJOR,MINOR or a mesh file "
+                f"(.obj .stl .ply), joined by '+'; got {part!r}")
+    return shapes
+
+
+class VoxelField:
+    """Distance and normal on cubic voxels around a union of shapes, in object space.
+
+    Parameters
+    ----------
+    shapes : list
+        Sphere, Box, Capsule, Torus or TriangleMesh, in world units at rest; their union is solid.
+    resolution : int
+        Voxels along the box's longest side (8 to 512).
+    pivot : (x, y, z), optional
+        The object's origin (it turns about it); default the centre of the shapes' bounds.
+    """
+
+    def __init__(self, shapes, resolution=64, pivot=None):
+        if not shapes:
+            raise ParameterError("a voxel field needs at least one shape")
+        self.resolution = int(check_range("field resolution", resolution, 8, 512, integer=True))
+        lo = np.min([s.bounds()[0] for s in shapes], axis=0)
+        hi = np.max([s.bounds()[1] for s in shapes], axis=0)
+        margin = FAR_VOXELS + 1
+        # Cubic voxels, the longest side spanning resolution - 2 margin of them.
+        self.voxel = float((hi - lo).max()) / (self.resolution - 2 * margin)
+        for s in shapes:
+            if hasattr(s, "half_thickness") and s.half_thickness() < self.voxel:
+                raise ParameterError(
+                    f"{s} is thinner than two voxels of {self.voxel:.3g} at field resolution "
+                    f"{self.resolution}: raise --field-resolution or thicken the shape")
+        self.pivot = np.asarray((lo + hi) / 2 if pivot is None else pivot, float)
+        self.cells = tuple(int(c) for c in np.ceil((hi - lo) / self.voxel - 1e-9) + 2 * margin)
+        # The box in object space: centred on the shapes' bounds, relative to the pivot.
+        self.lo = (lo + hi) / 2 - np.asarray(self.cells) * self.voxel / 2 - self.pivot
+        self.shapes = tuple(shapes)
+        centres = self.centres()
+        world = centres + self.pivot
+        parts = [(np.full(centres.shape[:-1], np.inf), np.tile([0.0, 1.0, 0.0], centres.shape[:-1] + (1,)))]
+        for s in shapes:
+            if isinstance(s, TriangleMesh):
+                parts.append(mask_field(s.solid(self.lo + self.pivot, self.voxel,
+                                                np.asarray(self.cells)), self.voxel))
+            else:
+                parts.append(s.sdf(world))
+        self.distance, self.normal = union(parts)
+        # Inside, every depth is held (a particle deep inside is pushed out by what it reads);
+        # outside, distances beyond FAR_VOXELS only need to say "far".
+        self.range = (float(min(self.distance.min(), 0.0)) - self.voxel, FAR_VOXELS * self.voxel)
+        self.distance = np.clip(self.distance, *self.range)
+
+    def centres(self):
+        """Voxel centres in object space, (nz, ny, nx, 3) as x, y, z."""
+        nx, ny, nz = self.cells
+        axes = [self.lo[k] + (np.arange(n) + 0.5) * self.voxel for k, n in enumerate((nx, ny, nz))]
+        z, y, x = np.meshgrid(axes[2], axes[1], axes[0], indexing="ij")
+        return np.stack([x, y, z], -1)
+
+    # -- the atlas -------------------------------------------------------------------------
+
+    def atlas_layout(self, max_size, tile_multiple=1):
+        """(tile width, tile height, columns, atlas width, atlas height) of the slices tiled in
+        rows, as square as ``max_size`` texels a side allows, tiles padded to ``tile_multiple``."""
+        nx, ny, nz = self.cells
+        tw, th = (-(-n // tile_multiple) * tile_multiple for n in (nx, ny))
+        columns = max(1, min(nz, max_size // tw, int(np.ceil(np.sqrt(nz * th / tw)))))
+        rows = -(-nz // columns)
+        if tw > max_size or rows * th > max_size:
+            raise ParameterError(f"a {nx}x{ny}x{nz} voxel field does not fit a {max_size}-texel "
+                                 f"atlas: lower --field-resolution")
+        return tw, th, columns, columns * tw, rows * th
+
+    def texels(self, encoding="packed", max_size=4096, tile_multiple=1):
+        """The atlas (h, w, 4): uint8 for ``packed`` and ``smooth``, float32 for ``float``.
+        Padding texels repeat their tile's edge voxels (a smooth image for compression)."""
+        if encoding not in ENCODINGS:
+            raise ParameterError(f"field encoding must be one of {ENCODINGS}, got {encoding!r}")
+        lo, hi = self.range
+        unit = (self.distance - lo) / (hi - lo)
+        if encoding == "float":
+            voxels = np.concatenate([self.distance[..., None], self.normal], -1).astype(np.float32)
+        elif encoding == "packed":
+            voxels = np.concatenate([packing.pack16(unit.astype(np.float32)),
+                                     normal_bytes(self.normal)], -1)
+        else:
+            voxels = np.concatenate([np.round(unit * 255).astype(np.uint8)[..., None],
+                                     normal_bytes(self.normal),
+                                     np.full(unit.shape + (1,), 255, np.uint8)], -1)
+        nx, ny, nz = self.cells
+        tw, th, columns, w, h = self.atlas_layout(max_size, tile_multiple)
+        padded = np.pad(voxels, ((0, 0), (0, th - ny), (0, tw - nx), (0, 0)), mode="edge")
+        atlas = np.zeros((h, w, 4), voxels.dtype)
+        for z in range(nz):
+            row, col = divmod(z, columns)
+            atlas[row * th:(row + 1) * th, col * tw:(col + 1) * tw] = padded[z]
+        return atlas
+
+    def uniforms(self, max_size=4096, tile_multiple=1):
+        """The lookup's uniforms (lib/field3d.glsl)."""
+        tw, th, columns, w, h = self.atlas_layout(max_size, tile_multiple)
+        return {"u_field_lo": tuple(map(float, self.lo)), "u_voxel": float(self.voxel),
+                "u_field_cells": tuple(map(float, self.cells)),
+                "u_field_atlas": (float(tw), float(th), float(columns), 0.0),
+                "u_field_atlas_size": (float(w), float(h)),
+                "u_field_range": (self.range[0], self.range[1] - self.range[0])}
+
+    # -- numpy twins -------------------------------------------------------------------------
+
+    def decoded(self, encoding="packed", atlas=None, max_size=4096, tile_multiple=1):
+        """(distance, normal) per voxel as the shader decodes them; ``atlas`` a decompressed
+        atlas (what the GPU sees of a compressed one) instead of the exact texels."""
+        if atlas is None:
+            atlas = self.texels(encoding, max_size, tile_multiple)
+        nx, ny, nz = self.cells
+        tw, th, columns = self.atlas_layout(max_size, tile_multiple)[:3]
+        voxels = np.stack([atlas[(z // columns) * th:(z // columns) * th + ny,
+                                 (z % columns) * tw:(z % columns) * tw + nx] for z in range(nz)])
+        lo, span = np.float32(self.range[0]), np.float32(self.range[1] - self.range[0])
+        if encoding == "float":
+            d, n = voxels[..., 0], voxels[..., 1:]
+            n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+        else:
+            t = voxels.astype(np.float32) / np.float32(255)
+            if encoding == "packed":
+                d = lo + packing.unpack16(voxels[..., 0:2]) * span
+                e = voxels[..., 2:4]
+            else:
+                d = lo + t[..., 0] * span
+                e = voxels[..., 1:3]
+            n = octahedral_decode((np.floor(e.astype(np.float32) + 0.5) - 127) / np.float32(127))
+        return d.astype(np.float32), n.astype(np.float32)
+
+    @cached_property
+    def _decoded(self):
+        return self.decoded()
+
+    def sample(self, q, decoded=None):
+        """Twin of ``field_sample``: at object-space points q (N, 3), the NEAREST voxel's normal
+        and its distance carried from the voxel's centre to q along it; outside the box, far."""
+        d, n = self._decoded if decoded is None else decoded
+        cells = np.asarray(self.cells)
+        cell = np.floor((q - self.lo) / self.voxel)
+        inside = np.all((cell >= 0) & (cell < cells), axis=-1)
+        i = np.clip(cell, 0, cells - 1).astype(int)
+        normal = n[i[..., 2], i[..., 1], i[..., 0]].astype(np.float64)
+        centre = self.lo + (i + 0.5) * self.voxel
+        dist = d[i[..., 2], i[..., 1], i[..., 0]] + np.sum(normal * (q - centre), axis=-1)
+        return np.where(inside, dist, self.range[1]), normal
+
+    def exact(self, q):
+        """Float64 signed distance and normal of the analytic shapes at object-space points."""
+        return union([s.sdf(q + self.pivot) for s in self.shapes])
+
+
+def memory_rows(blocks, resolutions=(64, 128, 256)):
+    """Bits per voxel and bytes per object of an n^3 field at each block size: rows of
+    (name, bits per voxel, {n: bytes}). ``blocks`` maps a name to (bits per voxel of a tile whose
+    side is a multiple of the block, block footprint or None); padding is counted."""
+    rows = []
+    for name, (bits, block) in blocks.items():
+        sizes = {}
+        for n in resolutions:
+            if block is None:  # uncompressed, or the seed's 3D blocks (no atlas padding)
+                sizes[n] = int(np.ceil(n ** 3 * bits / 8))
+            else:
+                bw, bh = block
+                sizes[n] = int(-(-n // bw) * -(-n // bh) * n * 16)
+        rows.append((name, bits, sizes))
+    return rows

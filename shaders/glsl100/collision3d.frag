@@ -1,0 +1,169 @@
+#version 100
+// The 3D collision scene's passes, as the ARM chapter's: particles leave a disc above an object,
+// fall under gravity, a constant force and Stokes friction (drag integrated exactly), with some
+// randomness in flight, and bounce and slide off the object (a voxel field, lib/field3d.glsl; it
+// may turn and sway) and the floor y = 0, by the chapter's response (Listing 2.3) in the frame of
+// the moving surface. One file, three passes (WRITE_VELOCITY, WRITE_POSITION, WRITE_LIFE), each
+// computing the same particle (the life pass too: a particle that leaves the position range dies
+// and is emitted again, which it learns only by moving). numpy twin: es2particles/twins/collision3d.py.
+// Uniforms (scenes/collision3d.py): u_dt, u_lifetime, u_emitter (point, disc radius), u_launch
+// (velocity, its random spread across), u_gravity (gravity plus force /
+// mass), u_drag (6 pi eta r / m), u_jitter (random acceleration, per sqrt(s)), u_max_speed,
+// u_sliding, u_bounce, u_substep (the longest sub-step move, world units), u_surface_speed (the
+// fastest the object's surface moves) and lib/field3d.glsl's.
+#include "lib/life.glsl"
+#include "lib/drag.glsl"
+
+// MAX_SUBSTEPS: the most sub-steps any particle can need (the scene computes it).
+#ifndef MAX_SUBSTEPS
+#define MAX_SUBSTEPS 64
+#endif
+
+struct Particle {
+    vec3 x;
+    vec3 v;
+    vec2 life;
+};
+
+// Four more numbers in [0, 1) per particle and step (life_random's are the emission's).
+vec4 flight_random(vec2 uv)
+{
+    return hash44(vec4(floor(uv * u_state_size), mod(u_step, 4096.0), floor(u_step / 4096.0) + 53.0));
+}
+
+#include "lib/field3d.glsl"
+
+// A unit tangent of n at the angle 2 pi turn.
+vec3 random_tangent(vec3 n, float turn)
+{
+    vec3 side = normalize(cross(n, abs(n.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+    float angle = 6.2831853 * turn;
+    return side * cos(angle) + cross(n, side) * sin(angle);
+}
+
+// The chapter's response, v' = |v| (n s + t (1 - s)) r, in the frame of the surface (v is the
+// velocity relative to it): t is the tangent along the motion, or a random one where v is along
+// n (the chapter's getRandomTangentDir). Then out along n by the depth d < 0; the work of the
+// acceleration over that move is taken from the kinetic energy, so a push-out adds none.
+void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn)
+{
+    float vn = dot(v, n);
+    if (vn < 0.0) {
+        float speed = length(v);
+        vec3 along = v - vn * n;
+        float along_length = length(along);
+        vec3 t = along_length > 1e-6 * speed ? along / along_length : random_tangent(n, turn);
+        v = speed * (n * u_sliding + t * (1.0 - u_sliding)) * u_bounce;
+    }
+    x -= d * n;
+    float v2 = dot(v, v);
+    if (v2 > 0.0) {
+        v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);
+    }
+}
+
+// Collision with the object (at pose) and the floor after a sub-step that started at object-space
+// point q_before. A particle inside that moved along the outward normal (in object space) came
+// through the far side of a thin wall: it leaves by the side it came from (see collide() in
+// lib/particle.glsl); sub-steps move at most half a voxel relative to the object.
+void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, Pose pose, float turn)
+{
+    vec3 q = to_object(x, pose);
+    float d;
+    vec3 n;
+    field_sample(q, d, n);
+    if (d < 0.0) {
+        vec3 moved = q - q_before;
+        if (dot(moved, n) > 0.0 && d > -2.0 * u_voxel) {
+            n = -n;
+            d = dot(moved, n);
+        }
+        vec3 surface = surface_velocity(x, pose);
+        vec3 relative = v - surface;
+        respond(x, relative, a, d * u_pose.w, rotate(n, u_spin.xyz, pose.angle), turn);
+        v = relative + surface;
+    }
+    if (x.y < 0.0) {
+        respond(x, v, a, x.y, vec3(0.0, 1.0, 0.0), turn);
+    }
+}
+
+void integrate(inout vec3 x, inout vec3 v, vec4 r)
+{
+    // Randomness in flight: a random kick of u_jitter sqrt(dt) per step (a random walk of the
+    // velocity, the same spread whatever dt).
+    v += u_jitter * sqrt(u_dt) * (2.0 * r.yzw - 1.0);
+    // Sub-steps: each moves at most u_substep (half a voxel) relative to the object's surface.
+    float reach = (length(v) + length(u_gravity) * u_dt + u_surface_speed) * u_dt;
+    float n = clamp(ceil(reach / u_substep), 1.0, float(MAX_SUBSTEPS));
+    float h = u_dt / n;
+    vec2 drag = exact_drag(u_drag, h);
+    float t0 = u_step * u_dt;
+    vec3 q_before = to_object(x, object_pose(t0));
+    for (int i = 0; i < MAX_SUBSTEPS; ++i) {
+        if (float(i) >= n) {
+            break;
+        }
+        Pose pose = object_pose(t0 + (float(i) + 1.0) * h);
+        v = clamp(v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);
+        x += v * h;
+        collide(x, v, u_gravity, q_before, pose, r.x);
+        v = clamp(v, -u_max_speed, u_max_speed);
+        q_before = to_object(x, pose);
+    }
+}
+
+Particle emit(vec2 uv)
+{
+    vec4 r = life_random(uv);
+    vec4 s = flight_random(uv + 0.5 / u_state_size);
+    float angle = 6.2831853 * r.x;
+    float radius = u_emitter.w * sqrt(r.y);
+    Particle p;
+    p.x = u_emitter.xyz + radius * vec3(cos(angle), 0.0, sin(angle));
+    float across = 6.2831853 * r.z;
+    p.v = u_launch.xyz + u_launch.w * r.w * vec3(cos(across), 0.0, sin(across));
+    p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, s.x));
+    return p;
+}
+
+bool finite(vec3 a)
+{
+    return abs(a.x) < 1e30 && abs(a.y) < 1e30 && abs(a.z) < 1e30;
+}
+
+Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
+{
+    if (!(finite(x) && finite(v) && abs(life.x) < 1e30 && abs(life.y) < 1e30)) {
+        return emit(uv);
+    }
+    Particle p;
+    p.x = x;
+    p.v = v;
+    p.life = vec2(life.x + u_dt, life.y);
+    if (life_emits(life, p.life, u_dt)) {
+        return emit(uv);
+    }
+    if (life_alive(life)) {
+        integrate(p.x, p.v, flight_random(uv));
+        // Out of the position range (past the floor's edge, above the top) a write would clamp
+        // it onto an invisible wall: it dies and is emitted again.
+        vec3 hi = u_position_lo.xyz + u_position_span.xyz;
+        if (any(lessThan(p.x, u_position_lo.xyz)) || any(greaterThan(p.x, hi))) {
+            return emit(uv);
+        }
+    }
+    return p;
+}
+
+void main()
+{
+    Particle p = particle_step(read_position(v_uv), read_velocity(v_uv), read_life(v_uv), v_uv);
+#if defined(WRITE_LIFE)
+    write_life(p.life);
+#elif defined(WRITE_POSITION)
+    write_position(p.x);
+#else
+    write_velocity(p.v);
+#endif
+}

@@ -5,7 +5,7 @@ The field lives in the object's own space (its shapes at rest, the pivot at the 
 shader brings a particle into that space with the object's pose of the step and the normal back
 out, so the object may move and turn. Voxels are cubes; ``resolution`` of them span the box's
 longest side. Slices of constant z are tiled in rows of the atlas, each tile padded to a multiple
-of ``tile_multiple`` texels (a compression block never straddles two slices).
+to whole compression blocks (a block never straddles two slices).
 
 Three encodings of a voxel (see ``shaders/glsl100/lib/field3d.glsl``):
 
@@ -23,9 +23,9 @@ would take eight fetches across two slices and cannot filter a packed byte pair 
 
 Shapes are analytic (sphere, box, capsule, torus, their unions; exact distance and normal at each
 voxel centre) or triangle meshes (OBJ, STL, PLY through trimesh, the ``mesh`` extra): a mesh is
-made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh), then
-an exact Euclidean distance transform (scipy) gives distance and normal, as the 2D masks, so a
-thin shell is at least one voxel thick and does not leak.
+made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh; an
+open shell grown by a voxel across its faces), then an exact Euclidean distance transform (scipy)
+gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces.
 """
 
 from dataclasses import dataclass
@@ -163,13 +163,17 @@ class TriangleMesh:
     vertices: np.ndarray
     faces: np.ndarray
     name: str = "mesh"
+    closed: bool = True  # watertight: its inside is filled; else a shell, made face-connected
 
     def bounds(self):
         return self.vertices.min(axis=0), self.vertices.max(axis=0)
 
     def solid(self, lo, voxel, cells):
-        """Boolean (nz, ny, nx) mask: every voxel the surface touches, and the inside of each
-        closed part (the holes the surface voxels enclose)."""
+        """Boolean (nz, ny, nx) mask: the voxels the surface passes through (where its points,
+        a quarter voxel apart, fall), and the inside of each closed part (the holes the surface
+        voxels enclose). Surface voxels found this way may meet only at an edge or a corner where
+        the surface grazes one; a closed mesh's filled inside covers that, an open shell is grown
+        by one voxel across its faces (6-connected) so that nothing passes between them."""
         from scipy import ndimage
         import trimesh
 
@@ -179,6 +183,8 @@ class TriangleMesh:
         index = index[np.all((index >= 0) & (index < cells), axis=1)]
         mask = np.zeros(cells[::-1], bool)
         mask[index[:, 2], index[:, 1], index[:, 0]] = True
+        if not self.closed:
+            mask = ndimage.binary_dilation(mask, ndimage.generate_binary_structure(3, 1))
         return ndimage.binary_fill_holes(mask)
 
     def __repr__(self):
@@ -210,7 +216,7 @@ def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
     if not extent > 0:
         raise ParameterError(f"mesh file {str(path)!r} is flat to a point")
     v = (v - (lo + hi) / 2) * (size / extent) + np.asarray(centre, float)
-    return TriangleMesh(v, np.asarray(mesh.faces, np.int64), path.name)
+    return TriangleMesh(v, np.asarray(mesh.faces, np.int64), path.name, bool(mesh.is_watertight))
 
 
 def mask_field(solid, voxel):
@@ -279,6 +285,11 @@ def parse_shapes(spec, mesh_centre=(0.0, 1.0, 0.0), mesh_size=2.0):
                 raise ParameterError(f"shape {kind} is {kind}:{form} (numbers), got {part!r}")
             for v in values:
                 check_range(f"shape {kind}", v, -1e3, 1e3)
+            sizes = {"sphere": values[3:], "box": values[3:], "capsule": values[6:],
+                     "torus": values[3:]}[kind]
+            if not all(v > 0 for v in sizes):
+                raise ParameterError(f"shape {kind}: its sizes ({form.split(',', 3 if kind != 'capsule' else 6)[-1]}) "
+                                     f"must be > 0, got {part!r}")
             if cls is Box:
                 shapes.append(Box(tuple(values[:3]), tuple(values[3:])))
             elif cls is Capsule:
@@ -293,8 +304,22 @@ def parse_shapes(spec, mesh_centre=(0.0, 1.0, 0.0), mesh_size=2.0):
             raise ParameterError(
                 "shape must be sphere:CX,CY,CZ,R, box:CX,CY,CZ,HX,HY,HZ, "
                 "capsule:AX,AY,AZ,BX,BY,BZ,R, torus:CX,CY,CZ,MAJOR,MINOR or a mesh file "
-                f"(.obj .stl .ply), joined by '+'; got {part!r}")
+                f"(.obj .stl .ply .off .glb .gltf), joined by '+'; got {part!r}")
     return shapes
+
+
+def atlas_layout(cells, max_size, block=(1, 1)):
+    """(tile width, tile height, columns, atlas width, atlas height) of the z slices of a field of
+    ``cells`` (nx, ny, nz) tiled in rows, as square as ``max_size`` texels a side allows, each tile
+    padded to whole compression blocks (bw, bh): no block straddles two slices."""
+    nx, ny, nz = cells
+    tw, th = -(-nx // block[0]) * block[0], -(-ny // block[1]) * block[1]
+    columns = max(1, min(nz, max_size // tw, int(np.ceil(np.sqrt(nz * th / tw)))))
+    rows = -(-nz // columns)
+    if tw > max_size or rows * th > max_size:
+        raise ParameterError(f"a {nx}x{ny}x{nz} voxel field does not fit a {max_size}-texel "
+                             f"atlas: lower --field-resolution")
+    return tw, th, columns, columns * tw, rows * th
 
 
 class VoxelField:
@@ -305,7 +330,7 @@ class VoxelField:
     shapes : list
         Sphere, Box, Capsule, Torus or TriangleMesh, in world units at rest; their union is solid.
     resolution : int
-        Voxels along the box's longest side (8 to 512).
+        Voxels along the box's longest side (16 to 256: a 256^3 field fills a 4096^2 atlas).
     pivot : (x, y, z), optional
         The object's origin (it turns about it); default the centre of the shapes' bounds.
     """
@@ -313,7 +338,7 @@ class VoxelField:
     def __init__(self, shapes, resolution=64, pivot=None):
         if not shapes:
             raise ParameterError("a voxel field needs at least one shape")
-        self.resolution = int(check_range("field resolution", resolution, 8, 512, integer=True))
+        self.resolution = int(check_range("field resolution", resolution, 16, 256, integer=True))
         lo = np.min([s.bounds()[0] for s in shapes], axis=0)
         hi = np.max([s.bounds()[1] for s in shapes], axis=0)
         margin = FAR_VOXELS + 1
@@ -324,6 +349,7 @@ class VoxelField:
                 raise ParameterError(
                     f"{s} is thinner than two voxels of {self.voxel:.3g} at field resolution "
                     f"{self.resolution}: raise --field-resolution or thicken the shape")
+        self.bounds = (lo, hi)  # of the shapes, world units at rest
         self.pivot = np.asarray((lo + hi) / 2 if pivot is None else pivot, float)
         self.cells = tuple(int(c) for c in np.ceil((hi - lo) / self.voxel - 1e-9) + 2 * margin)
         # The box in object space: centred on the shapes' bounds, relative to the pivot.
@@ -353,19 +379,11 @@ class VoxelField:
 
     # -- the atlas -------------------------------------------------------------------------
 
-    def atlas_layout(self, max_size, tile_multiple=1):
-        """(tile width, tile height, columns, atlas width, atlas height) of the slices tiled in
-        rows, as square as ``max_size`` texels a side allows, tiles padded to ``tile_multiple``."""
-        nx, ny, nz = self.cells
-        tw, th = (-(-n // tile_multiple) * tile_multiple for n in (nx, ny))
-        columns = max(1, min(nz, max_size // tw, int(np.ceil(np.sqrt(nz * th / tw)))))
-        rows = -(-nz // columns)
-        if tw > max_size or rows * th > max_size:
-            raise ParameterError(f"a {nx}x{ny}x{nz} voxel field does not fit a {max_size}-texel "
-                                 f"atlas: lower --field-resolution")
-        return tw, th, columns, columns * tw, rows * th
+    def atlas_layout(self, max_size, block=(1, 1)):
+        """See :func:`atlas_layout`."""
+        return atlas_layout(self.cells, max_size, block)
 
-    def texels(self, encoding="packed", max_size=4096, tile_multiple=1):
+    def texels(self, encoding="packed", max_size=4096, block=(1, 1)):
         """The atlas (h, w, 4): uint8 for ``packed`` and ``smooth``, float32 for ``float``.
         Padding texels repeat their tile's edge voxels (a smooth image for compression)."""
         if encoding not in ENCODINGS:
@@ -382,7 +400,7 @@ class VoxelField:
                                      normal_bytes(self.normal),
                                      np.full(unit.shape + (1,), 255, np.uint8)], -1)
         nx, ny, nz = self.cells
-        tw, th, columns, w, h = self.atlas_layout(max_size, tile_multiple)
+        tw, th, columns, w, h = self.atlas_layout(max_size, block)
         padded = np.pad(voxels, ((0, 0), (0, th - ny), (0, tw - nx), (0, 0)), mode="edge")
         atlas = np.zeros((h, w, 4), voxels.dtype)
         for z in range(nz):
@@ -390,9 +408,9 @@ class VoxelField:
             atlas[row * th:(row + 1) * th, col * tw:(col + 1) * tw] = padded[z]
         return atlas
 
-    def uniforms(self, max_size=4096, tile_multiple=1):
+    def uniforms(self, max_size=4096, block=(1, 1)):
         """The lookup's uniforms (lib/field3d.glsl)."""
-        tw, th, columns, w, h = self.atlas_layout(max_size, tile_multiple)
+        tw, th, columns, w, h = self.atlas_layout(max_size, block)
         return {"u_field_lo": tuple(map(float, self.lo)), "u_voxel": float(self.voxel),
                 "u_field_cells": tuple(map(float, self.cells)),
                 "u_field_atlas": (float(tw), float(th), float(columns), 0.0),
@@ -401,13 +419,13 @@ class VoxelField:
 
     # -- numpy twins -------------------------------------------------------------------------
 
-    def decoded(self, encoding="packed", atlas=None, max_size=4096, tile_multiple=1):
+    def decoded(self, encoding="packed", atlas=None, max_size=4096, block=(1, 1)):
         """(distance, normal) per voxel as the shader decodes them; ``atlas`` a decompressed
         atlas (what the GPU sees of a compressed one) instead of the exact texels."""
         if atlas is None:
-            atlas = self.texels(encoding, max_size, tile_multiple)
+            atlas = self.texels(encoding, max_size, block)
         nx, ny, nz = self.cells
-        tw, th, columns = self.atlas_layout(max_size, tile_multiple)[:3]
+        tw, th, columns = self.atlas_layout(max_size, block)[:3]
         voxels = np.stack([atlas[(z // columns) * th:(z // columns) * th + ny,
                                  (z % columns) * tw:(z % columns) * tw + nx] for z in range(nz)])
         lo, span = np.float32(self.range[0]), np.float32(self.range[1] - self.range[0])
@@ -445,20 +463,3 @@ class VoxelField:
     def exact(self, q):
         """Float64 signed distance and normal of the analytic shapes at object-space points."""
         return union([s.sdf(q + self.pivot) for s in self.shapes])
-
-
-def memory_rows(blocks, resolutions=(64, 128, 256)):
-    """Bits per voxel and bytes per object of an n^3 field at each block size: rows of
-    (name, bits per voxel, {n: bytes}). ``blocks`` maps a name to (bits per voxel of a tile whose
-    side is a multiple of the block, block footprint or None); padding is counted."""
-    rows = []
-    for name, (bits, block) in blocks.items():
-        sizes = {}
-        for n in resolutions:
-            if block is None:  # uncompressed, or the seed's 3D blocks (no atlas padding)
-                sizes[n] = int(np.ceil(n ** 3 * bits / 8))
-            else:
-                bw, bh = block
-                sizes[n] = int(-(-n // bw) * -(-n // bh) * n * 16)
-        rows.append((name, bits, sizes))
-    return rows

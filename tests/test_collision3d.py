@@ -76,19 +76,27 @@ def test_octahedral_normals_round_trip():
 def test_atlas_tiles_slices_in_rows_within_the_size():
     field = VoxelField(SHAPES["box"], 48)
     nx, ny, nz = field.cells
-    tw, th, columns, w, h = field.atlas_layout(256, tile_multiple=6)
-    assert tw % 6 == 0 and th % 6 == 0 and w <= 256 and h <= 256
-    atlas = field.texels("packed", 256, 6)
+    tw, th, columns, w, h = field.atlas_layout(256, block=(8, 5))
+    assert tw % 8 == 0 and th % 5 == 0 and tw - nx < 8 and th - ny < 5 and w <= 256 and h <= 256
+    atlas = field.texels("packed", 256, (8, 5))
     assert atlas.shape == (h, w, 4)
-    z = nz - 1
-    row, col = divmod(z, columns)
     expected = field.texels("packed", 4096)  # another layout, the same voxels
-    d_small, _ = field.decoded("packed", atlas, 256, 6)
+    d_small, _ = field.decoded("packed", atlas, 256, (8, 5))
     d_big, _ = field.decoded("packed", expected)
     assert np.array_equal(d_small, d_big)
-    assert np.array_equal(atlas[row * th, col * tw], atlas[row * th, col * tw])
+    # The last slice's first voxel sits where the layout says.
+    row, col = divmod(nz - 1, columns)
+    assert np.array_equal(atlas[row * th, col * tw], expected_voxel(field, nz - 1))
     with pytest.raises(ParameterError, match="does not fit"):
         field.atlas_layout(16)
+
+
+def expected_voxel(field, z):
+    from es2particles.twins import pack
+
+    lo, hi = field.range
+    unit = np.float32((field.distance[z, 0, 0] - lo) / (hi - lo))
+    return np.concatenate([pack.pack16(unit), normal_bytes(field.normal[z, 0, 0])])
 
 
 def test_thin_shapes_are_refused():
@@ -99,7 +107,8 @@ def test_thin_shapes_are_refused():
 @pytest.mark.parametrize("spec, message", [
     ("sphere:0,1,0", "sphere:CX,CY,CZ,R"), ("cube:0,1,0,1", "shape must be"),
     ("box:0,1,0,a,b,c", "box:CX"), ("sphere:0,1,0,inf", "must be finite"),
-    ("missing.obj", "does not exist")])
+    ("missing.obj", "does not exist"), ("sphere:0,1,0,0", "must be > 0"),
+    ("box:0,1,0,1,-1,1", "must be > 0")])
 def test_bad_shapes_are_named(spec, message):
     with pytest.raises(ParameterError, match=message):
         parse_shapes(spec)
@@ -163,7 +172,8 @@ def test_gpu_step_matches_the_float64_twin(gl, shape, changes, field_format):
             sim.step()
             x1 = sim.download("position")
             xr, _ = step_reference(x0, v0, scene.field, p, step, scene.substep,
-                                   scene.surface_speed, flight_random(uv, step, size), decoded)
+                                   scene.surface_speed, flight_random(uv, step, size), decoded,
+                                   scene.max_substeps)
             error = np.linalg.norm(x1 - xr, axis=1)
             assert np.mean(error < 1e-5) > 0.999, step
             assert error.max() < scene.field.voxel, step
@@ -205,7 +215,7 @@ def _depths(scene, x, step):
 @pytest.mark.parametrize("shape, changes", [
     ("sphere:0,1,0,1", {}),
     ("box:0,1.2,0,1.2,0.3,0.6", {"spin": (90.0, 0.0, 0.0, 1.0)}),
-    ("capsule:-1,1,0,1,1.4,0,0.35+sphere:0,0.6,0,0.5", {"sway": (0.4, 0.3, 0.0, 1.5),
+    ("capsule:-1,1.2,0,1,1.6,0,0.35+sphere:0,0.8,0,0.5", {"sway": (0.4, 0.3, 0.0, 1.5),
                                                          "spin": (40.0, 0.0, 1.0, 0.0)})])
 def test_no_particle_deeper_than_a_voxel(gl, shape, changes):
     """The default RGBA8 state, emission and all: after every step, no living particle lies
@@ -333,10 +343,14 @@ def test_model_matrix_carries_the_rest_pose_as_the_shader_does():
 
 def test_memory_rows_count_blocks_and_padding():
     rows = {name: (bits, sizes) for name, bits, sizes in memory_rows((64, 128))}
-    assert rows["rgba8 (packed)"][1][128] == 128 ** 3 * 4
+    assert rows["rgba8"][1][64] == 64 ** 3 * 4  # 8 x 8 tiles of 64^2, no padding
+    # 128 slices of 128^2 in 12 columns and 11 rows: 4 unused tiles are counted.
+    assert rows["rgba8"][1][128] == 12 * 11 * 128 ** 2 * 4
     bits, sizes = rows["astc 6x6 (atlas)"]
     assert bits == pytest.approx(128 / 36)
-    assert sizes[64] == 11 * 11 * 64 * 16  # 64 texels are 11 blocks of 6, padded
+    # 64 texels are 11 blocks of 6 (66, padded); 8 x 8 tiles of 66^2.
+    assert sizes[64] == (8 * 66 // 6) ** 2 * 16
+    assert rows["astc 10x5 (atlas)"][1][64] == (8 * 70 // 10) * (8 * 65 // 5) * 16
     assert rows["astc 4x4x4 (seed, 3D)"][0] == 2.0
     assert rows["astc 3x3x3 (seed, 3D)"][0] == pytest.approx(4.74, abs=0.01)  # Table 2.1
 
@@ -351,7 +365,7 @@ def test_compressed_field_collides_within_its_measured_error(gl):
                                                         field=base.field),
                             base.field, count=1024, steps=60, blocks=((4, 4), (8, 8)))
     found = {fmt: (depth, median) for fmt, depth, median, _ in rows}
-    assert found["rgba32f"] == (0.0, 0.0)
+    assert found["rgba32f"] == (0.0, 0.0) and found["rgba8-smooth"][0] < 0.5
     assert found["rgba8"][0] < 0.1 and found["rgba8"][1] < 0.2
     # Lossy blocks cost depth: a fraction of a voxel at 4x4, under a voxel and a half at 8x8.
     assert found["astc4x4"][0] < 0.8 and found["astc8x8"][0] < 1.5

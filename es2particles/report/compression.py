@@ -8,7 +8,9 @@ textures to hold them.
 
 Error: the same start (the scene's own emission, no randomness in flight) run for a fixed number
 of steps against the float field (``rgba32f``), the state kept in float32 so that only the field
-differs. Penetration: the deepest any living particle is inside the exact shapes after any step,
+differs. rgba8-smooth is the compressed fields' encoding (an 8-bit distance) left uncompressed:
+the difference between its row and an ASTC row is what the blocks cost, the rest is the 8 bits.
+Penetration: the deepest any living particle is inside the exact shapes after any step,
 in voxels. Trajectory: how far each particle alive in both runs ends from its reference place
 (median and 99th percentile, in voxels); bouncing is chaotic, so a few particles that took another
 branch dominate a maximum, and the median is the figure to compare.
@@ -16,7 +18,8 @@ branch dominate a maximum, and the median is the figure to compare.
 
 import numpy as np
 
-from ..astc import BLOCKS, Compressed
+from ..astc import BLOCKS
+from ..field3d import TriangleMesh, atlas_layout
 from ..simulation import Simulation
 
 SEED_3D_BLOCKS = ((3, 3, 3), (4, 3, 3), (4, 4, 3), (4, 4, 4), (5, 4, 4), (5, 5, 4), (5, 5, 5),
@@ -24,13 +27,22 @@ SEED_3D_BLOCKS = ((3, 3, 3), (4, 3, 3), (4, 4, 3), (4, 4, 4), (5, 4, 4), (5, 5, 
 MEASURED_BLOCKS = ((4, 4), (5, 5), (6, 6), (8, 8), (10, 10), (12, 12))
 
 
+def atlas_bytes(n, bytes_per_block, block=(1, 1), max_size=16384):
+    """Bytes of the atlas of an n^3 field as the scene lays it out (in a 16384-texel texture, as
+    llvmpipe's; a padded 256^3 field needs more than 4096): tiles padded to whole blocks, the
+    last row's unused tiles counted."""
+    w, h = atlas_layout((n, n, n), max_size, block)[3:]
+    return -(-w // block[0]) * -(-h // block[1]) * bytes_per_block
+
+
 def memory_rows(resolutions=(64, 128, 256)):
-    """Rows (format, bits per voxel, {n: bytes of an n^3 field}), padding counted."""
-    rows = [("rgba32f", 128.0, {n: n ** 3 * 16 for n in resolutions}),
-            ("rgba8 (packed)", 32.0, {n: n ** 3 * 4 for n in resolutions})]
+    """Rows (format, nominal bits per voxel, {n: bytes of an n^3 field}), padding counted."""
+    rows = [("rgba32f", 128.0, {n: atlas_bytes(n, 16) for n in resolutions}),
+            ("rgba8", 32.0, {n: atlas_bytes(n, 4) for n in resolutions}),
+            ("rgba8-smooth", 32.0, {n: atlas_bytes(n, 4) for n in resolutions})]
     for bw, bh in BLOCKS:
         rows.append((f"astc {bw}x{bh} (atlas)", 128 / (bw * bh),
-                     {n: -(-n // bw) * -(-n // bh) * n * 16 for n in resolutions}))
+                     {n: atlas_bytes(n, 16, (bw, bh)) for n in resolutions}))
     for bx, by, bz in SEED_3D_BLOCKS:
         rows.append((f"astc {bx}x{by}x{bz} (seed, 3D)", 128 / (bx * by * bz),
                      {n: -(-n // bx) * -(-n // by) * -(-n // bz) * 16 for n in resolutions}))
@@ -48,9 +60,7 @@ def _run(ctx, scene, count, steps):
             life = sim.download("life")
             positions.append(sim.download("position"))
             alive.append((life[:, 0] >= 0) & (life[:, 0] < life[:, 1]))
-        compressed = next((t for t in scene.graph().textures.values()
-                           if isinstance(t, Compressed)), None)
-        return np.array(positions), np.array(alive), compressed
+        return np.array(positions), np.array(alive)
     finally:
         sim.release()
 
@@ -58,19 +68,23 @@ def _run(ctx, scene, count, steps):
 def collision_errors(ctx, scene_of, field, count=4096, steps=90, blocks=MEASURED_BLOCKS):
     """Rows (format, deepest penetration, median and p99 trajectory error, all in voxels) of the
     field in each format against the float field. ``scene_of(field_format)`` makes the scene over
-    the same field (its physics without randomness in flight)."""
-    ref_x, ref_alive, _ = _run(ctx, scene_of("rgba32f"), count, steps)
-    formats = ["rgba32f", "rgba8"] + [f"astc{w}x{h}" for w, h in blocks]
+    the same field (its physics without randomness in flight). Penetration needs the exact
+    distance: NaN for a mesh's field."""
+    ref_x, ref_alive = _run(ctx, scene_of("rgba32f"), count, steps)
+    formats = ["rgba32f", "rgba8", "rgba8-smooth"] + [f"astc{w}x{h}" for w, h in blocks]
+    analytic = not any(isinstance(s, TriangleMesh) for s in field.shapes)
     rows = []
     for fmt in formats:
-        x, alive, _ = (ref_x, ref_alive, None) if fmt == "rgba32f" else _run(
-            ctx, scene_of(fmt), count, steps)
-        q = (x - field.pivot).reshape(-1, 3)  # a still object: object space is world - pivot
-        depth = -field.exact(q)[0].reshape(alive.shape)
-        deepest = float(np.max(np.where(alive, depth, -np.inf))) / field.voxel
+        x, alive = (ref_x, ref_alive) if fmt == "rgba32f" else _run(ctx, scene_of(fmt), count,
+                                                                   steps)
+        deepest = np.nan
+        if analytic:
+            q = (x - field.pivot).reshape(-1, 3)  # a still object: object space is world - pivot
+            depth = -field.exact(q)[0].reshape(alive.shape)
+            deepest = max(float(np.max(np.where(alive, depth, -np.inf))) / field.voxel, 0.0)
         both = alive[-1] & ref_alive[-1]
         off = np.linalg.norm(x[-1][both] - ref_x[-1][both], axis=1) / field.voxel
-        rows.append((fmt, max(deepest, 0.0), float(np.median(off)), float(np.quantile(off, 0.99))))
+        rows.append((fmt, deepest, float(np.median(off)), float(np.quantile(off, 0.99))))
     return rows
 
 
@@ -86,7 +100,8 @@ def table_lines(memory, errors=None):
         key = name.split(" (")[0]
         row = measured.get(key)
         if row is not None:
-            line += f"   {row[0]:>11.2f}  {row[1]:>8.3f} / {row[2]:.3f}"
+            depth = "-" if np.isnan(row[0]) else f"{row[0]:.2f}"
+            line += f"   {depth:>11}  {row[1]:>8.3f} / {row[2]:.3f}"
         lines.append(line)
     return lines
 

@@ -26,7 +26,11 @@ FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
 HEIGHT = 7.0  # y in [-1, 7]: 8 units, the floor y = 0 a code of the 16-bit grid (see fountain.py)
 SUBSTEP_LIMIT = 4096
 DEFAULT_SHAPE = "sphere:0,1,0,1"
-FIELD_FORMATS = ("rgba8", "rgba32f")  # and astcWxH (see astc.BLOCKS)
+# Uncompressed field formats and their encodings (field3d.py); and astcWxH (see astc.BLOCKS).
+# rgba8-smooth, the 8-bit distance of the compressed fields left uncompressed, tells the two
+# errors of a compressed field apart.
+FIELD_ENCODINGS = {"rgba8": "packed", "rgba32f": "float", "rgba8-smooth": "smooth"}
+FIELD_FORMATS = tuple(FIELD_ENCODINGS)
 
 
 @dataclass(frozen=True)
@@ -41,7 +45,9 @@ class Physics3D:
     viscosity: float = 1.8e-5  # air; Stokes drag k = 6 pi eta r / m
     jitter: float = 0.3  # random acceleration, m/s^2 per sqrt(s)
     sliding: float = 0.5  # the chapter's sliding factor: 1 bounces along the normal, 0 slides
-    bounce: float = 0.5  # the chapter's bouncing resistance: the speed kept
+    # The chapter's bouncing resistance r: v' = |v| r (n s + t (1 - s)), so a contact keeps
+    # r sqrt(s^2 + (1 - s)^2) of the speed (0.71 r at s = 0.5).
+    bounce: float = 0.5
     emitter: tuple = (0.0, 3.2, 0.0)
     emitter_radius: float = 0.25
     launch: tuple = (0.0, 0.0, 0.0)
@@ -53,6 +59,10 @@ class Physics3D:
     scale: float = 1.0
 
     def __post_init__(self):
+        for name, length in (("force", 3), ("emitter", 3), ("launch", 3), ("lifetime", 2),
+                             ("spin", 4), ("sway", 4)):
+            if len(getattr(self, name)) != length:
+                raise ParameterError(f"{name} must be {length} numbers, got {getattr(self, name)}")
         check_range("dt", self.dt, 1e-4, 0.1)
         check_range("gravity", self.gravity, 0.0, 100.0)
         for v in self.force:
@@ -67,14 +77,16 @@ class Physics3D:
         check_range("emitter radius", self.emitter_radius, 0.0, FLOOR_HALF)
         check_range("launch spread", self.launch_spread, 0.0, self.max_speed)
         for k, v in enumerate(self.emitter):
-            lo, hi = ((-FLOOR_HALF, FLOOR_HALF), (0.0, HEIGHT), (-FLOOR_HALF, FLOOR_HALF))[k]
-            check_range("emitter " + "xyz"[k], v, lo, hi)
+            edge = (FLOOR_HALF - self.emitter_radius, HEIGHT, FLOOR_HALF - self.emitter_radius)[k]
+            check_range("emitter " + "xyz"[k], v, 0.0 if k == 1 else -edge, edge)
         for v in self.launch:
             check_range("launch velocity", v, -self.max_speed, self.max_speed)
         lo, hi = (check_range("lifetime", v, self.dt, longest_life(self.dt)) for v in self.lifetime)
         if hi < lo:
             raise ParameterError(f"lifetime must have min <= max, got {self.lifetime}")
         check_range("spin", self.spin[0], -3600.0, 3600.0)
+        for v in self.spin[1:]:
+            check_range("spin axis", v, -1e3, 1e3)
         if self.spin[0] != 0 and not np.linalg.norm(self.spin[1:]) > 0:
             raise ParameterError(f"spin axis must not be zero, got {self.spin[1:]}")
         for v in self.sway[:3]:
@@ -153,14 +165,18 @@ class Collision3D(Scene):
                                                                 field_resolution)
         p, f = physics, self.field
         # The object must stay inside the position range (particles there die), whatever pose.
-        reach = np.linalg.norm(np.asarray(f.cells) * f.voxel) / 2 * p.scale
-        centre = f.pivot + (np.asarray(f.lo) + np.asarray(f.cells) * f.voxel / 2) * p.scale
+        lo, hi = f.bounds
+        # The shapes' bounding sphere where the object turns, else their box; scaled.
+        reach = np.linalg.norm(hi - lo) / 2 * p.scale
+        extent = np.full(3, reach) if p.spin[0] else (hi - lo) / 2 * p.scale
+        centre = (lo + hi) / 2
         sway = np.abs(p.sway[:3])
         box_lo = np.array([-FLOOR_HALF, -1.0, -FLOOR_HALF])
         box_hi = np.array([FLOOR_HALF, HEIGHT, FLOOR_HALF])
-        if np.any(centre - reach - sway < box_lo - 1.0) or np.any(centre + reach + sway > box_hi + 1.0):
-            raise ParameterError(f"the object (and its sway) must stay within x, z in "
-                                 f"[-{FLOOR_HALF:g}, {FLOOR_HALF:g}] and y in [-1, {HEIGHT:g}]")
+        if np.any(centre - extent - sway < box_lo) or np.any(centre + extent + sway > box_hi):
+            raise ParameterError(f"the object (turned any way, and swaying) must stay "
+                                 f"within x, z in [-{FLOOR_HALF:g}, {FLOOR_HALF:g}] and y in "
+                                 f"[-1, {HEIGHT:g}]: move or shrink the --shape")
         self.substep = 0.5 * f.voxel * p.scale  # world units: half a voxel
         self.surface_speed = (np.linalg.norm(p.sway[:3]) * (2 * np.pi / p.sway[3] if p.sway[3] else 0)
                               + abs(p.spin_rate) * (np.linalg.norm(centre - f.pivot) + reach))
@@ -184,10 +200,11 @@ class Collision3D(Scene):
                  "file (.obj .stl .ply: scaled to 2 m, centred at 0,1,0; needs the mesh extra), "
                  f"a union joined by '+' (default {DEFAULT_SHAPE})")
         add("--field-resolution", type=int, default=64,
-            help="voxels along the object's longest side, 8 to 512 (default 64)")
+            help="voxels along the object's longest side, 16 to 256 (default 64)")
         add("--field-format", default="rgba8",
-            help="the field's texture: rgba8 (16-bit distance, octahedral normal), rgba32f, or "
-                 "astcWxH (compressed, e.g. astc6x6, where the context has ASTC; default rgba8)")
+            help="the field's texture: rgba8 (16-bit distance, octahedral normal), rgba32f, "
+                 "rgba8-smooth (8-bit distance, as the compressed ones) or astcWxH (compressed, "
+                 "e.g. astc6x6, where the context has ASTC; default rgba8)")
         add("--emitter", default="0,3.2,0", help="the emitter disc's centre x,y,z (default 0,3.2,0)")
         add("--dt", type=float, default=1 / 60, help="time step in seconds (default 1/60)")
         add("--gravity", type=float, default=9.81, help="downward acceleration (default 9.81)")
@@ -202,7 +219,8 @@ class Collision3D(Scene):
             "sqrt(s) (default 0.3)")
         add("--sliding", type=float, default=0.5, help="sliding factor in [0, 1]: 1 bounces "
             "along the normal, 0 slides (default 0.5)")
-        add("--bounce", type=float, default=0.5, help="speed kept on contact, [0, 1] (default 0.5)")
+        add("--bounce", type=float, default=0.5, help="the chapter's bouncing resistance r in "
+            "[0, 1]: a contact keeps r sqrt(s^2 + (1-s)^2) of the speed (default 0.5)")
         add("--lifetime", type=float, nargs=2, default=(3.0, 4.0), metavar=("MIN", "MAX"),
             help="lifetime range in seconds (default 3 4)")
         add("--spin", default="0", help="turn the object: degrees per second, optionally with "
@@ -241,7 +259,7 @@ class Collision3D(Scene):
         p = self.physics
         return p.spin[0] != 0 or p.sway[3] > 0
 
-    def uniforms(self, max_size, tile_multiple):
+    def uniforms(self, max_size, block):
         p, f = self.physics, self.field
         axis = p.spin_axis
         return {"u_dt": float(p.dt), "u_lifetime": tuple(map(float, p.lifetime)),
@@ -254,10 +272,17 @@ class Collision3D(Scene):
                 "u_pose": (*map(float, f.pivot), float(p.scale)),
                 "u_spin": (*map(float, axis), float(p.spin_rate)),
                 "u_sway": tuple(map(float, p.sway)),
-                **f.uniforms(max_size, tile_multiple)}
+                **f.uniforms(max_size, block)}
 
-    def graph(self, max_size=4096):
+    def graph(self, max_size=None):
+        """The passes; the atlas fits ``max_size`` texels a side (default the current context's
+        largest texture, else 4096)."""
         from .. import astc
+        from ..context import Context
+
+        if max_size is None:
+            current = Context._current
+            max_size = current.caps.max_texture_size if current is not None else 4096
 
         p = self.physics
         g = PassGraph()
@@ -266,17 +291,16 @@ class Collision3D(Scene):
         g.quantity("life", *life_range(p.dt), storage="rgba8")
         defines = {"MAX_SUBSTEPS": self.max_substeps}
         if self.block is not None and self.astc_missing() is None:
-            texels = self.field.texels("smooth", max_size, max(self.block))
+            texels = self.field.texels("smooth", max_size, self.block)
             g.texture("field", astc.compress(texels, self.block))
             defines["FIELD_SMOOTH"] = None
-            uniforms = self.uniforms(max_size, max(self.block))
-        elif self.field_format == "rgba32f":
-            g.texture("field", self.field.texels("float", max_size))
-            defines["FIELD_FLOAT"] = None
-            uniforms = self.uniforms(max_size, 1)
+            uniforms = self.uniforms(max_size, self.block)
         else:
-            g.texture("field", self.field.texels("packed", max_size))
-            uniforms = self.uniforms(max_size, 1)
+            encoding = FIELD_ENCODINGS.get(self.field_format, "packed")
+            g.texture("field", self.field.texels(encoding, max_size))
+            defines.update({"float": {"FIELD_FLOAT": None}, "smooth": {"FIELD_SMOOTH": None},
+                            "packed": {}}[encoding])
+            uniforms = self.uniforms(max_size, (1, 1))
         state = ("position", "velocity", "life")
         for name in state:
             g.add(name, "collision3d.frag", writes=name, reads=state, textures=["field"],
@@ -380,8 +404,9 @@ class Collision3D(Scene):
             ctx, lambda fmt: Collision3D(physics=still, field_format=fmt, field=self.field),
             self.field, blocks=blocks)
         nx, ny, nz = self.field.cells
-        lines = [f"field memory per object and collision error (this field, {nx}x{ny}x{nz}, "
-                 f"still, no jitter, 4096 particles, 90 steps, against rgba32f; voxels):"]
+        lines = [f"field memory of an n^3 field (bits per voxel nominal, bytes with padding) and "
+                 f"the collision error of this field ({nx}x{ny}x{nz}, still, no jitter, 4096 "
+                 f"particles, 90 steps, against rgba32f; in voxels; penetration '-' for meshes):"]
         lines += ["  " + line for line in compression.table_lines(compression.memory_rows(),
                                                                   errors)]
         if missing:

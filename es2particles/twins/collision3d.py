@@ -67,7 +67,8 @@ def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None):
     q = obj.to_object(x, pose)
     d, n = field.sample(q, decoded)
     moved = q - q_before
-    back = (d < 0) & (np.sum(moved * n, axis=1) > 0) & (d > -2 * field.voxel)
+    back = ((d < 0) & (np.sum(moved * n, axis=1) > 0) & (d > -2 * field.voxel)
+            & (d < -0.25 * field.voxel))  # from a quarter voxel deep (see collision3d.frag)
     n = np.where(back[:, None], -n, n)
     d = np.where(back, np.sum(moved * n, axis=1), d)
     hit = d < 0
@@ -78,16 +79,18 @@ def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None):
     return x, v
 
 
-def step_reference(x, v, field, p, step, substep, surface_speed, random=None, decoded=None):
+def step_reference(x, v, field, p, step, substep, surface_speed, random=None, decoded=None,
+                   max_substeps=4096):
     """One step of living particles (N, 3) at step number ``step``; ``random`` (N, 4) are
-    ``flight_random``'s numbers (None: no kick, a fixed tangent turn of 0)."""
+    ``flight_random``'s numbers (None: no kick, a fixed tangent turn of 0); sub-step counts
+    are clamped to ``max_substeps`` (the shader's MAX_SUBSTEPS)."""
     x, v = np.array(x, np.float64), np.array(v, np.float64)
     r = np.zeros((len(x), 4)) if random is None else np.asarray(random, np.float64)
     if random is not None:
         v = v + p.jitter * np.sqrt(p.dt) * (2 * r[:, 1:] - 1)
     a = p.acceleration
     reach = (np.linalg.norm(v, axis=1) + np.linalg.norm(a) * p.dt + surface_speed) * p.dt
-    n = np.clip(np.ceil(reach / substep), 1, None)
+    n = np.clip(np.ceil(reach / substep), 1, max_substeps)
     h = p.dt / n
     decay, gain = exact_drag(p.drag, h)
     obj = Object(field, p)

@@ -42,8 +42,9 @@ vec3 random_tangent(vec3 n, float turn)
 }
 
 // The chapter's response, v' = |v| (n s + t (1 - s)) r, in the frame of the surface (v is the
-// velocity relative to it): t is the tangent along the motion, or a random one where v is along
-// n (the chapter's getRandomTangentDir). Then out along n by the depth d < 0; the work of the
+// velocity relative to it). Unlike Listing 2.3, whose t = cross(n, v) turns a particle sideways,
+// t is the tangent along the motion (a particle slides on the way it was going), or a random one
+// where v is along n (the chapter's getRandomTangentDir). Then out along n by the depth d < 0; the work of the
 // acceleration over that move is taken from the kinetic energy, so a push-out adds none.
 void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn)
 {
@@ -73,8 +74,12 @@ void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, Pose pose, float
     vec3 n;
     field_sample(q, d, n);
     if (d < 0.0) {
+        // Only from a quarter voxel deep: a particle that came through the far side of a wall
+        // reads at least half a voxel of depth there (walls are a voxel thick or more, sub-steps
+        // at most half a voxel), where a sliding one barely inside reads less; turned round, it
+        // would be pushed in.
         vec3 moved = q - q_before;
-        if (dot(moved, n) > 0.0 && d > -2.0 * u_voxel) {
+        if (dot(moved, n) > 0.0 && d > -2.0 * u_voxel && d < -0.25 * u_voxel) {
             n = -n;
             d = dot(moved, n);
         }
@@ -116,7 +121,7 @@ void integrate(inout vec3 x, inout vec3 v, vec4 r)
 Particle emit(vec2 uv)
 {
     vec4 r = life_random(uv);
-    vec4 s = flight_random(uv + 0.5 / u_state_size);
+    vec4 s = hash44(vec4(floor(uv * u_state_size), mod(u_step, 4096.0), floor(u_step / 4096.0) + 71.0));
     float angle = 6.2831853 * r.x;
     float radius = u_emitter.w * sqrt(r.y);
     Particle p;

@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError, check_range
+from .field import union  # the smallest distance, with its shape's normal: any dimension
 from .twins import pack as packing
 
 ENCODINGS = ("packed", "float", "smooth")
@@ -142,16 +143,6 @@ class Torus:
 
 SHAPES = {"sphere": (Sphere, "CX,CY,CZ,R"), "box": (Box, "CX,CY,CZ,HX,HY,HZ"),
           "capsule": (Capsule, "AX,AY,AZ,BX,BY,BZ,R"), "torus": (Torus, "CX,CY,CZ,MAJOR,MINOR")}
-
-
-def union(parts):
-    """Union of shapes: the smallest distance, with the normal of the shape that gives it."""
-    dist, normal = parts[0]
-    for d, n in parts[1:]:
-        closer = d < dist
-        dist = np.where(closer, d, dist)
-        normal = np.where(closer[..., None], n, normal)
-    return dist, normal
 
 
 # --- triangle meshes: a solid voxel mask, then an exact distance transform ----------------------

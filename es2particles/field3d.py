@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import ParameterError, check_range
+from . import field as field2d
 from .field import union  # the smallest distance, with its shape's normal: any dimension
 from .twins import pack as packing
 
@@ -50,26 +51,20 @@ def _unit(v, fallback=(0.0, 1.0, 0.0)):
 
 
 @dataclass(frozen=True)
-class Sphere:
-    centre: tuple
-    radius: float
+class Sphere(field2d.Circle):
+    """A sphere: the circle's centre, radius and bounds, in three dimensions."""
 
     def sdf(self, p):
         q = p - np.asarray(self.centre, float)
         return np.linalg.norm(q, axis=-1) - self.radius, _unit(q)
-
-    def bounds(self):
-        c = np.asarray(self.centre, float)
-        return c - self.radius, c + self.radius
 
     def half_thickness(self):
         return self.radius
 
 
 @dataclass(frozen=True)
-class Box:
-    centre: tuple
-    half_size: tuple
+class Box(field2d.Box):
+    """An axis-aligned box: the 2D box's centre, half sizes and bounds, in three dimensions."""
 
     def sdf(self, p):
         q = p - np.asarray(self.centre, float)
@@ -83,19 +78,13 @@ class Box:
         normal = np.where((out_len > 0)[..., None], _unit(outside * sign), inside)
         return out_len + np.minimum(d.max(axis=-1), 0), normal
 
-    def bounds(self):
-        c, h = np.asarray(self.centre, float), np.asarray(self.half_size, float)
-        return c - h, c + h
-
     def half_thickness(self):
         return min(self.half_size)
 
 
 @dataclass(frozen=True)
-class Capsule:
-    a: tuple
-    b: tuple
-    radius: float
+class Capsule(field2d.Capsule):
+    """The points within ``radius`` of the segment a-b: the 2D capsule's fields and bounds."""
 
     def sdf(self, p):
         a, b = np.asarray(self.a, float), np.asarray(self.b, float)
@@ -106,10 +95,6 @@ class Capsule:
         across = _unit(np.cross(ab, (1.0, 0.0, 0.0) if abs(ab[0]) < 0.9 * np.linalg.norm(ab)
                                 else (0.0, 1.0, 0.0)))
         return np.linalg.norm(q, axis=-1) - self.radius, _unit(q, across)
-
-    def bounds(self):
-        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
-        return np.minimum(a, b) - self.radius, np.maximum(a, b) + self.radius
 
     def half_thickness(self):
         return self.radius

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..camera import Camera, orbit
 from ..errors import ParameterError, check_range
-from ..field3d import TriangleMesh, VoxelField, parse_shapes
+from ..field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
 from ..graph import PassGraph
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene
@@ -155,8 +155,6 @@ class Collision3D(Scene):
 
     def __init__(self, shape=DEFAULT_SHAPE, physics=Physics3D(), field_resolution=64,
                  field_format="rgba8", camera="fixed", field=None):
-        from .. import astc
-
         if camera not in ("fixed", "orbit"):
             raise ParameterError(f"camera must be one of ('fixed', 'orbit'), got {camera!r}")
         self.block = parse_field_format(field_format)
@@ -329,17 +327,15 @@ class Collision3D(Scene):
         meshes = [sprites.floor(FLOOR_HALF, cell=0.5)]
         colour = (0.72, 0.45, 0.30)
         for s in self.field.shapes:
-            kind = type(s).__name__
-            if kind == "Sphere":
+            if isinstance(s, Sphere):
                 mesh = sprites.sphere(s.centre, s.radius, colour)
-            elif kind == "Box":
+            elif isinstance(s, Box):
                 mesh = sprites.box(s.centre, s.half_size, colour)
-            elif kind == "Capsule":
+            elif isinstance(s, Capsule):
                 mesh = sprites.capsule(s.a, s.b, s.radius, colour)
-            elif kind == "Torus":
+            elif isinstance(s, Torus):
                 mesh = sprites.torus(s.centre, s.major, s.minor, colour=colour)
             else:
-                assert isinstance(s, TriangleMesh)
                 mesh = sprites.from_triangles(s.vertices, s.faces, colour)
             meshes.append(mesh)
         # Meshes are given in world units at rest; the model matrix carries them to the pose.

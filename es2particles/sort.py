@@ -1,0 +1,515 @@
+"""Sorting particles back to front on the GPU, in full-screen fragment passes (ES 2.0 has no
+compute shaders, no integers worth the name and one render target).
+
+An *order* is a texture of one texel per *slot*, a power-of-two number of slots n = 2^L >= count
+(near square: 2^ceil(L/2) x 2^floor(L/2)), each slot holding a sort key and a particle index
+(``shaders/glsl100/lib/order.glsl`` encodes, decodes and compares them). Slots past the count hold
+*padding*: the largest key and the slot's own number as index, so they sort after every particle
+and never appear among the first ``count`` slots, the ones a renderer draws.
+
+:class:`SortingNetwork` sorts the slots with Batcher's odd-even merge sort, L(L+1)/2 passes of
+``sort/merge.frag``, one program whose uniforms change between draws, ping-ponging between two
+textures. Odd-even merge, not bitonic: each of its comparators puts the smaller value at the lower
+slot, so every pass leaves a sorted order as it is, and the passes can be spread over frames while
+the keys change (bitonic stages sort halves in opposite directions and would unsort it).
+
+:class:`DepthSorter` adds the key pass (``sort/key.frag``): each slot keeps the particle it held
+last frame and gets its new key, the view depth for a camera, far first; then all passes of the
+network run, or only the next few of its cycle (Latta 2004, "Building a Million Particle System":
+the order converges over frames and, with coherent motion, stays nearly sorted).
+
+Key formats:
+
+- ``rgba8`` (the ES 2.0 baseline): one 32-bit word = key * 2^B + index over the four bytes (RG the
+  high 16 bits, BA the low 16), B = max(L, 8) index bits and 32 - B key bits: 2^18 particles leave
+  14 key bits, 2^24 (the largest count) 8; fewer than 257 particles get 24 (float32 computes no
+  more exactly, hence B >= 8). Words compare as (high16, low16) pairs, by key and then by index:
+  the result is numpy's stable argsort of the quantised keys, exactly.
+- ``rgba32f``: R = key (float), G = index; the same comparison. No quantisation of the depth.
+
+The numpy twin of the network (:func:`network_pass`, :func:`schedule`) is what the tests check the
+GPU against, pass by pass; :func:`sortedness` measures how far an order is from back to front.
+"""
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from .bindings import stage_interface
+from .command import FullscreenCommand
+from .errors import CapabilityError, ParameterError, check_range
+
+FORMATS = ("rgba8", "rgba32f")
+MAX_COUNT = 2 ** 24  # every slot number and index must be an integer float32 holds exactly
+MIN_INDEX_BITS = 8  # so the key has at most 24 bits: float32 quantises no more exactly
+FLOAT_KEY_MAX = 1.0e38  # ORDER_FLOAT_MAX of lib/order.glsl: the key of padding in rgba32f
+
+
+# --- the network, pure numpy ------------------------------------------------------------------
+
+def levels(count):
+    """L: the slots are 2^L, the smallest power of two >= ``count``."""
+    return max(int(count) - 1, 0).bit_length()
+
+
+def schedule(slots):
+    """The (p, k) of each pass of odd-even merge sort over ``slots`` (a power of two), in order:
+    p = 1, 2, 4, ..., slots / 2 and, for each, k = p, p / 2, ..., 1; L(L+1)/2 passes."""
+    out, p = [], 1
+    while p < slots:
+        k = p
+        while k >= 1:
+            out.append((p, k))
+            k //= 2
+        p *= 2
+    return out
+
+
+def comparators(slots, p, k):
+    """The lower slots a of the comparators (a, a + k) of pass (p, k), and the role of every slot:
+    (lower, upper) boolean masks over the ``slots``. The same arithmetic as sort/merge.frag."""
+    x = np.arange(slots)
+    c = 0 if k == p else k  # k mod p
+    r = x - c
+    phase = np.maximum(r, 0) % (2 * k)
+    block = x % (2 * p)
+    lower = (r >= 0) & (phase < k) & (block + k < 2 * p)
+    upper = (r >= k) & (phase >= k) & (block >= k)
+    return lower, upper
+
+
+def network_pass(values, p, k):
+    """The numpy twin of one pass of sort/merge.frag over ``values`` (a power-of-two length of
+    anything numpy compares): each comparator (a, a + k) puts the smaller value at a."""
+    values = np.asarray(values)
+    lower, _ = comparators(len(values), p, k)
+    a = np.flatnonzero(lower)
+    b = a + k
+    swap = values[b] < values[a]
+    out = values.copy()
+    out[a[swap]], out[b[swap]] = values[b[swap]], values[a[swap]]
+    return out
+
+
+def network_sort(values, passes=None):
+    """``values`` (a power-of-two length) after the first ``passes`` passes of the network (all
+    of them when None)."""
+    out = np.asarray(values).copy()
+    for p, k in schedule(len(out))[:passes]:
+        out = network_pass(out, p, k)
+    return out
+
+
+def index_bits(count):
+    """rgba8: the bits of a word that hold the index (the rest, 32 - this, hold the key)."""
+    return max(levels(count), MIN_INDEX_BITS)
+
+
+def order_defines(fmt, count):
+    """The defines of ``lib/order.glsl`` for an order of ``fmt`` over ``count`` particles: the
+    split of the rgba8 word (see the module's docstring), or ORDER_FLOAT."""
+    if fmt == "rgba32f":
+        return {"ORDER_FLOAT": None}
+    bits = index_bits(count)
+    return {"ORDER_HIGH_MOD": float(2 ** max(bits - 16, 0)),
+            "ORDER_LOW_MOD": float(2 ** min(bits, 16)),
+            "ORDER_KEY_MAX": float(2 ** (32 - bits) - 1)}
+
+
+# --- how sorted an order is ------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Sortedness:
+    """How far a drawing order is from back to front (0 everywhere: sorted).
+
+    ``adjacent``: the share of neighbouring pairs drawn near before far (the strictest measure:
+    particles a few places apart at nearly one depth count as much as far ones). ``displacement``:
+    the mean distance, over the particles, from a particle's place in the order to the places it
+    could have in a sorted one (ties may go either way), divided by the count. ``discordant``: the
+    share of all pairs drawn near before far (Kendall's tau distance). ``depth_error``: the mean,
+    over the places of the order, of the difference between the depth drawn there and the depth
+    that belongs there, divided by the particles' depth extent (what a wrong blend is made of).
+    """
+
+    adjacent: float
+    displacement: float
+    discordant: float
+    depth_error: float
+
+    def __str__(self):
+        return (f"{100 * self.adjacent:.2f}% of neighbours and {100 * self.discordant:.3f}% of all "
+                f"pairs out of order, mean displacement {100 * self.displacement:.3f}% of the "
+                f"count, mean depth error {100 * self.depth_error:.3f}% of the depth extent")
+
+
+def sortedness(order, depth):
+    """:class:`Sortedness` of drawing particles in ``order`` (indices, first drawn first) when
+    particle i is at view depth ``depth[i]``: back to front means depth never increases."""
+    order = np.asarray(order, dtype=np.int64)
+    depth = np.asarray(depth, dtype=np.float64)
+    n = len(order)
+    if n < 2:
+        return Sortedness(0.0, 0.0, 0.0, 0.0)
+    drawn = -depth[order]  # must never decrease
+    adjacent = float(np.mean(drawn[1:] < drawn[:-1]))
+    ranked = np.sort(drawn)
+    first = np.searchsorted(ranked, drawn, side="left")  # the places this value may take
+    last = np.searchsorted(ranked, drawn, side="right") - 1
+    place = np.arange(n)
+    miss = np.maximum(first - place, 0) + np.maximum(place - last, 0)
+    _, dense = np.unique(drawn, return_inverse=True)
+    discordant = _inversions(dense.reshape(-1)) / (n * (n - 1) / 2)
+    extent = ranked[-1] - ranked[0]
+    error = float(np.abs(drawn - ranked).mean() / extent) if extent > 0 else 0.0
+    return Sortedness(adjacent, float(miss.mean() / n), float(discordant), error)
+
+
+def _inversions(values):
+    """Pairs i < j with values[i] > values[j], for non-negative integers: a bottom-up merge sort
+    whose levels are counted with one searchsorted each (O(n log^2 n) in numpy, no Python loop
+    over elements)."""
+    n = len(values)
+    size = 1 << max(n - 1, 0).bit_length()
+    top = int(values.max()) + 1
+    merged = np.full(size, top, dtype=np.int64)  # padding at the end, largest: no inversions
+    merged[:n] = values
+    total, width = 0, 1
+    while width < size:
+        pairs = merged.reshape(-1, 2, width)
+        offset = (np.arange(len(pairs), dtype=np.int64) * (top + 1))[:, None]
+        left = (pairs[:, 0] + offset).ravel()  # sorted as a whole: each row sorted, rows apart
+        right = (pairs[:, 1] + offset).ravel()
+        not_greater = np.searchsorted(left, right, side="right") - np.repeat(
+            np.arange(len(pairs)) * width, width)
+        total += int((width - not_greater).sum())
+        merged = np.sort(pairs.reshape(len(pairs), 2 * width), axis=1).ravel()
+        width *= 2
+    return total
+
+
+# --- the network on the GPU ------------------------------------------------------------------
+
+class SortingNetwork:
+    """Batcher's odd-even merge sort of ``count`` (key, index) slots in fragment passes.
+
+    Parameters
+    ----------
+    ctx : Context
+    count : int
+        Slots that hold particles, 1 .. 2^24; the order has the next power of two of slots, the
+        rest padding.
+    fmt : str
+        ``rgba8`` (keys of ``key_bits`` bits, the ES 2.0 baseline) or ``rgba32f`` (float keys).
+
+    Attributes
+    ----------
+    passes : int
+        Passes of the whole network, L(L+1)/2 for 2^L slots.
+    schedule : list of (p, k)
+        Each pass's merge size and comparator distance, in order.
+    width, height, slots : int
+        The order texture's size; slots = width * height.
+    index_bits, key_bits : int
+        rgba8 only: the word's split, index_bits = max(L, 8), key_bits = 32 - index_bits.
+
+    ``texture`` is the front order (the latest result); a renderer draws the particles of its
+    first ``count`` slots, from ``slot_uv()``, decoding them with ``lib/order.glsl`` compiled with
+    ``defines()``.
+    """
+
+    def __init__(self, ctx, count, fmt="rgba8"):
+        self.group = None
+        if fmt not in FORMATS:
+            raise ParameterError(f"fmt must be one of {list(FORMATS)}, got {fmt!r}")
+        self.count = int(check_range("count", count, 1, MAX_COUNT, integer=True))
+        ctx.make_current()
+        if fmt != "rgba8":
+            ctx.require_format(fmt)
+        self.ctx, self.fmt = ctx, fmt
+        self.levels = levels(self.count)
+        self.width, self.height = 2 ** ((self.levels + 1) // 2), 2 ** (self.levels // 2)
+        self.slots = self.width * self.height
+        if self.width > ctx.caps.max_texture_size:
+            raise CapabilityError(f"an order of {self.slots} slots is {self.width} texels wide; "
+                                  f"the context's largest texture is {ctx.caps.max_texture_size}")
+        self.index_bits = index_bits(self.count)
+        self.key_bits = 32 - self.index_bits
+        self.key_max = 2 ** self.key_bits - 1
+        self.schedule = schedule(self.slots)
+        self.passes = len(self.schedule)
+        self.cursor = 0  # the next pass of the cycle that run(passes) continues
+        self.group = ctx.group()
+        try:
+            self.textures = [self.group.texture(self.layout, fmt) for _ in range(2)]
+            self.framebuffers = [self.group.framebuffer(t) for t in self.textures]
+            self.command = FullscreenCommand(self.group, "sort/merge.frag",
+                                             "sorting network pass", self.defines())
+            self.command.set("u_order_size", (float(self.width), float(self.height)))
+            self.load(np.zeros(self.count))
+        except Exception:
+            self.group.release()
+            raise
+
+    @property
+    def layout(self):
+        """(width, height) of the order texture."""
+        return (self.width, self.height)
+
+    @property
+    def texture(self):
+        """The front order: the result of the latest pass."""
+        return self.textures[0]
+
+    @property
+    def back_framebuffer(self):
+        """The framebuffer a pass writes into (its texture becomes the front on ``swap()``)."""
+        return self.framebuffers[1]
+
+    def swap(self):
+        self.textures.reverse()
+        self.framebuffers.reverse()
+
+    def defines(self):
+        """The defines ``lib/order.glsl`` needs to decode this network's slots in any program."""
+        return order_defines(self.fmt, self.count)
+
+    def slot_uv(self):
+        """Texel centres (count, 2) float32 of the first ``count`` slots, in slot order: the
+        vertex buffer of a draw in sorted order (vertex i decodes slot i)."""
+        slot = np.arange(self.count)
+        uv = np.stack([(slot % self.width + 0.5) / self.width,
+                       (slot // self.width + 0.5) / self.height], axis=1)
+        return uv.astype(np.float32)
+
+    def describe_keys(self):
+        return f"{self.fmt}: " + (f"{self.key_bits} key bits" if self.fmt == "rgba8"
+                                  else "float keys")
+
+    # -- data ---------------------------------------------------------------------------------
+
+    def quantise(self, keys):
+        """rgba8 key codes (int64) of float keys in [0, 1] (clamped): round(key * key_max)."""
+        keys = np.clip(np.asarray(keys, dtype=np.float64), 0.0, 1.0)
+        return np.floor(keys * self.key_max + 0.5).astype(np.int64)
+
+    def encode(self, keys, indices):
+        """Texel contents (slots, 4) of (key, index) pairs: the numpy twin of order_encode."""
+        if self.fmt == "rgba32f":
+            texels = np.zeros((len(keys), 4), dtype=np.float32)
+            texels[:, 0], texels[:, 1] = keys, indices
+            return texels
+        word = (np.asarray(keys, np.uint64) << np.uint64(self.index_bits)) | np.asarray(
+            indices, np.uint64)
+        return np.stack([(word >> np.uint64(s)) & np.uint64(255) for s in (24, 16, 8, 0)],
+                        axis=1).astype(np.uint8)
+
+    def decode(self, texels):
+        """(keys, indices) of texel contents (slots, 4): rgba8 keys as int64 codes."""
+        if self.fmt == "rgba32f":
+            return texels[:, 0].copy(), texels[:, 1].astype(np.int64)
+        b = texels.astype(np.int64)
+        word = (b[:, 0] << 24) | (b[:, 1] << 16) | (b[:, 2] << 8) | b[:, 3]
+        return word >> self.index_bits, word & ((1 << self.index_bits) - 1)
+
+    def load(self, keys):
+        """Upload ``count`` keys, slot i holding (keys[i], i); the rest padding. Starts a new
+        cycle of ``run(passes)``.
+
+        rgba8: floats in [0, 1] (clamped) are quantised onto the key bits (``quantise``); an
+        integer array is taken as the codes themselves, 0 .. 2^key_bits - 1. rgba32f: finite
+        floats within +-1e38, stored as float32.
+        """
+        keys = np.asarray(keys)
+        if keys.shape != (self.count,):
+            raise ParameterError(f"keys must have shape ({self.count},), got {keys.shape}")
+        full = np.empty(self.slots, dtype=np.float32 if self.fmt == "rgba32f" else np.int64)
+        if self.fmt == "rgba32f":
+            keys = keys.astype(np.float64)
+            if not np.all(np.abs(keys) <= FLOAT_KEY_MAX):  # NaN fails too
+                raise ParameterError("keys must be finite and within +-1e38 in rgba32f")
+            full[self.count:] = FLOAT_KEY_MAX
+        elif np.issubdtype(keys.dtype, np.integer):
+            if keys.size and (keys.min() < 0 or keys.max() > self.key_max):
+                raise ParameterError(f"integer keys are codes: they must be in [0, "
+                                     f"{self.key_max}] ({self.key_bits} key bits), got "
+                                     f"[{keys.min()}, {keys.max()}]")
+            full[self.count:] = self.key_max
+        else:
+            keys = keys.astype(np.float64)
+            if not np.all(np.isfinite(keys)):
+                raise ParameterError("keys must be finite (rgba8 keys are clamped to [0, 1])")
+            keys = self.quantise(keys)
+            full[self.count:] = self.key_max
+        full[: self.count] = keys
+        self.ctx.make_current()
+        self.texture.write(self.encode(full, np.arange(self.slots)).tobytes())
+        self.cursor = 0
+
+    def read_slots(self):
+        """(keys, indices) of every slot of the front order (padding included)."""
+        self.ctx.make_current()
+        dtype = np.float32 if self.fmt == "rgba32f" else np.uint8
+        return self.decode(np.frombuffer(self.texture.read(), dtype=dtype).reshape(-1, 4))
+
+    def read(self):
+        """(keys, indices) of the first ``count`` slots, in order (numpy; for tests and tools)."""
+        keys, indices = self.read_slots()
+        return keys[: self.count], indices[: self.count]
+
+    # -- passes -------------------------------------------------------------------------------
+
+    def run(self, passes=None):
+        """Run the whole network (None), or the next ``passes`` passes of its cycle (wrapping
+        around; passes on a sorted order change nothing). A whole run leaves the cycle's place
+        where it was."""
+        if passes is None:
+            todo = range(self.passes)
+        else:
+            passes = int(check_range("passes", passes, 0, None, integer=True))
+            todo = [(self.cursor + i) % self.passes for i in range(passes)] if self.passes else []
+            if self.passes:
+                self.cursor = (self.cursor + passes) % self.passes
+        self.ctx.make_current()
+        for i in todo:
+            p, k = self.schedule[i]
+            self.command.set("u_p", float(p))
+            self.command.set("u_k", float(k))
+            self.command.draw(self.back_framebuffer, {"u_order": self.texture})
+            self.swap()
+
+    def release(self):
+        """Release the textures and the command's vertex array; safe to call twice."""
+        if self.group is not None:
+            self.group.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+class DepthSorter:
+    """Orders particles back to front for a camera: the key pass and a :class:`SortingNetwork`.
+
+    Parameters
+    ----------
+    ctx : Context
+    position_quantity : Quantity
+        The particles' position (3 components), read from the state at its range.
+    state_layout : Layout
+        Where the particles sit in the state textures (its count is the sorted count).
+    state_format : str
+        The simulation's storage format (``rgba8``, ``rgba16f`` or ``rgba32f``).
+    fmt : str, optional
+        The order's format, ``rgba8`` or ``rgba32f``. By default it follows the state: ``rgba8``
+        with ``rgba8`` state (the ES 2.0 path throughout), ``rgba32f`` (no quantisation of the
+        depth) where the state already is float and the context renders rgba32f. (ES 1.00
+        declares gl_FragColor mediump: bytes survive that on any driver, float keys and indices
+        only where the driver writes highp values through it, as desktop drivers and Mesa do for
+        the way the sort shaders write it.)
+    passes_per_frame : int, optional
+        None runs the whole network every ``update``; k runs the key pass and the next k passes
+        of the network's cycle, so the order converges over frames (k >= the network's passes is
+        the whole network).
+    """
+
+    def __init__(self, ctx, position_quantity, state_layout, state_format="rgba8", fmt=None,
+                 passes_per_frame=None):
+        self.group = self.network = None
+        if getattr(position_quantity, "components", None) != 3:
+            raise ParameterError("position_quantity must be a Quantity of 3 components, got "
+                                 f"{position_quantity!r}")
+        if passes_per_frame is not None:
+            passes_per_frame = int(check_range("passes_per_frame", passes_per_frame, 1, None,
+                                               integer=True))
+        if fmt is None:
+            fmt = ("rgba32f" if position_quantity.format_in(state_format) != "rgba8"
+                   and ctx.caps.renderable.get("rgba32f") else "rgba8")
+        self.ctx, self.quantity, self.layout = ctx, position_quantity, state_layout
+        self.network = SortingNetwork(ctx, state_layout.count, fmt)
+        self.passes_per_frame = passes_per_frame
+        if passes_per_frame is not None and passes_per_frame >= self.network.passes:
+            self.passes_per_frame = None  # a whole network each frame
+        # key.frag calls read_position whatever the quantity's name: its interface is written for
+        # a copy named `position`, fed from the quantity's own buffer.
+        renamed = replace(position_quantity, name="position")
+        self.interface = stage_interface(("position",), {"position": renamed}, state_format)
+        self.group = ctx.group()
+        try:
+            self.command = FullscreenCommand(self.group, "sort/key.frag", "depth sort key pass",
+                                             self.network.defines(), self.interface)
+            state = self.command.state
+            for name, value in {**self.interface.fixed, "u_count": float(state_layout.count),
+                                "u_state_size": (float(state_layout.width),
+                                                 float(state_layout.height))}.items():
+                if self.command.has(name):
+                    state.set(name, value)
+        except Exception:
+            self.release()
+            raise
+        self.samplers = {name: part for name, (_, _, part, _) in self.interface.samplers.items()}
+
+    @property
+    def texture(self):
+        """The front order texture (see :class:`SortingNetwork`)."""
+        return self.network.texture
+
+    def defines(self):
+        return self.network.defines()
+
+    def slot_uv(self):
+        return self.network.slot_uv()
+
+    def depth_range(self, camera):
+        """(near, far): the view depths of the position box's nearest and farthest corners."""
+        lo, hi = np.array(self.quantity.lo), np.array(self.quantity.hi)
+        corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)]
+                            for c in range(8)])
+        depth = (corners - np.array(camera.eye)) @ forward(camera)
+        return float(depth.min()), float(depth.max())
+
+    def update(self, buffers, camera):
+        """Re-key the current order for ``camera`` from the positions in ``buffers`` (quantity
+        name -> StateBuffer; its fronts are read) and run the network's passes for this frame."""
+        network, command = self.network, self.command
+        self.ctx.make_current()
+        near, far = self.depth_range(camera)
+        command.set("u_eye", tuple(float(v) for v in camera.eye))
+        command.set("u_forward", tuple(float(v) for v in forward(camera)))
+        command.set("u_depth", (far, 1.0 / max(far - near, 1e-30)))
+        fronts = buffers[self.quantity.name].fronts
+        textures = {name: fronts[part] for name, part in self.samplers.items()}
+        textures["u_order"] = network.texture
+        command.draw(network.back_framebuffer, textures)
+        network.swap()
+        network.run(self.passes_per_frame)
+
+    def order(self):
+        """The particle indices in drawing order, far first (reads the GPU back: tests)."""
+        return self.network.read()[1]
+
+    def describe(self):
+        n = self.network
+        if self.passes_per_frame is None:
+            passes = f"{n.passes} odd-even merge passes per frame"
+        else:
+            frames = math.ceil(n.passes / self.passes_per_frame)
+            passes = (f"{self.passes_per_frame} of {n.passes} odd-even merge passes per frame "
+                      f"(the whole network every {frames} frames)")
+        return (f"sort: key pass + {passes} over {n.slots} slots ({n.describe_keys()}), "
+                f"back to front")
+
+    def release(self):
+        """Release the key pass and the network; safe to call twice."""
+        if self.group is not None:
+            self.group.release()
+        if self.network is not None:
+            self.network.release()
+
+
+def forward(camera):
+    """The camera's unit viewing direction (target - eye, normalised)."""
+    f = np.subtract(camera.target, camera.eye).astype(np.float64)
+    return f / np.linalg.norm(f)

@@ -45,10 +45,10 @@ class ParticleStage:
     the checked compile, the renderer's uniform values (kept per user: the context's cache may
     share the program), sampler units by name, and the buffer of texel coordinates that names
     each particle (ES 1.00 has no gl_VertexID) with its vertex array. Shared by the density
-    points and the 3D sprites."""
+    points, the 3D sprites and the shadow map's pass."""
 
     def __init__(self, group, vertex, fragment, stage, quantities, state_format, layout, uniforms,
-                 defines=None):
+                 defines=None, texels=None):
         ctx = group.ctx
         self.interface = stage_interface(tuple(quantities), quantities, state_format, uniforms)
         self.program = compile_checked(
@@ -58,7 +58,9 @@ class ParticleStage:
         self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
         self.set_many({**self.units, **self.interface.fixed, **uniforms,
                        "u_state_size": (float(layout.width), float(layout.height))})
-        self.texels = group.buffer(layout.texel_uv().tobytes())
+        # Each vertex's texel: the particle's own, or (``texels``) a slot of an order texture.
+        texels = layout.texel_uv() if texels is None else np.asarray(texels, np.float32)
+        self.texels = group.buffer(texels.tobytes())
         self.vao = group.vertex_array(self.program, [(self.texels, "2f", "a_texel")])
 
     def set_many(self, values):

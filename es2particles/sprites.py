@@ -224,11 +224,20 @@ def disc_texture(size=64):
     return (rgba * 255).round().astype(np.uint8)
 
 
-SPRITES = {"fireball": fireball_texture, "disc": disc_texture}
+def smoke_texture(size=64):
+    """A soft puff: white, alpha (1 - r^2)^3, a radial falloff with no edge (the Mali sample's
+    sprites fade towards their rims)."""
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size * 2 - 1
+    a = np.clip(1 - (x * x + y * y), 0, 1) ** 3
+    rgba = np.stack([np.ones_like(a)] * 3 + [a], -1)
+    return (rgba * 255).round().astype(np.uint8)
+
+
+SPRITES = {"fireball": fireball_texture, "disc": disc_texture, "smoke": smoke_texture}
 
 
 def load_sprite(spec):
-    """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc`` or a PNG path."""
+    """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc``, ``smoke`` or a PNG path."""
     if spec in SPRITES:
         return SPRITES[spec]()
     from .images import read_image
@@ -293,6 +302,15 @@ class SpriteRenderer:
     light : (x, y, z)
         The point light of the meshes.
     background : (r, g, b)
+    sort : None, "full" or int
+        Draw order: None, the particles' texel order; ``"full"``, back to front, sorted by the
+        whole sorting network every frame; k, k merge passes per frame, the order converging
+        over frames as the particles move (``sort.DepthSorter``). Order matters for ``over``.
+    growth : float
+        A sprite's size at the end of its life, relative to its birth (smoke puffs spread).
+    shadow : shadow.OpacityShadow or None
+        Self-shadowing by an opacity shadow map seen from its light; needs attenuation
+        (0, 0, c), so that a sprite has one world size, and a perspective camera.
     """
 
     READS = ("position", "life")
@@ -300,7 +318,8 @@ class SpriteRenderer:
     def __init__(self, ctx, quantities, layout, size, state_format="rgba8", meshes=(),
                  sprite="fireball", point_size=24.0, size_spread=0.5, attenuation=(0.0, 0.0, 1.0),
                  fade=1.0, blend="add", tint=(1.0, 0.15, 0.05, 0.35), opacity=0.8,
-                 light=(3.0, 6.0, 4.0), background=(0.05, 0.06, 0.09)):
+                 light=(3.0, 6.0, 4.0), background=(0.05, 0.06, 0.09), sort=None, shadow=None,
+                 growth=1.0):
         if ctx.caps.max_vertex_texture_units < 1:
             raise CapabilityError("no support for vertex shader textures "
                                   "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0): cannot draw particles")
@@ -327,15 +346,41 @@ class SpriteRenderer:
         uniforms = {"u_eye": (0.0, 0.0, 1.0), "u_size": (self.pixel_size, size_spread, lo, hi),
                     "u_attenuation": (a, b, c), "u_fade": float(fade)}
         opacity = float(check_range("opacity", opacity, 0.0, 1.0))
+        if shadow is not None and (a, b) != (0.0, 0.0):
+            raise ParameterError(f"shadow needs attenuation (0, 0, c): a sprite of one world size "
+                                 f"(got {tuple(attenuation)})")
+        self.attenuation = (a, b, c)
+        growth = float(check_range("growth", growth, 0.01, 100.0))
         texture = load_sprite(sprite)
+        self.sorter = self.shadow = None
         self.group = ctx.group()
         try:
+            defines, texels = ({} if growth == 1 else {"GROWTH": None}), None
+            if sort is not None:
+                from .sort import DepthSorter
+
+                per_frame = None if sort == "full" else sort
+                self.sorter = DepthSorter(ctx, quantities["position"], layout, state_format,
+                                          passes_per_frame=per_frame)
+                defines.update(self.sorter.defines(), SORTED=None)
+                texels = self.sorter.slot_uv()
+            if shadow is not None:
+                from .shadow import ShadowMap
+
+                self.shadow = ShadowMap(ctx, shadow, quantities, layout, state_format, texture,
+                                        opacity, size_spread, (lo, hi), growth)
+                defines["SHADOWED"] = None
             self.stage = ParticleStage(self.group, "sprites/sprite.vert", "sprites/sprite.frag",
                                        "the sprite renderer", quantities, state_format, layout,
-                                       uniforms)
-            self.sprite_unit = len(self.stage.units)
+                                       uniforms, defines, texels)
+            units = len(self.stage.units)
+            self.sprite_unit, self.order_unit, self.shadow_unit = units, units + 1, units + 2
             self.stage.set_many({"u_sprite": self.sprite_unit, "u_opacity": opacity,
-                                 "u_tint": tuple(float(v) for v in tint)})
+                                 "u_tint": tuple(float(v) for v in tint),
+                                 "u_order": self.order_unit, "u_shadow_map": self.shadow_unit,
+                                 "u_growth": growth})
+            if self.shadow is not None:
+                self.stage.set_many(self.shadow.uniforms())
             h, w = texture.shape[:2]
             # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's
             # first row belongs (meshes' textures are flipped: their v = 0 is the bottom).
@@ -345,7 +390,7 @@ class SpriteRenderer:
             self.framebuffer = self.group.framebuffer(self.image, self.group.depth(self.size))
             self.meshes = [self._mesh(m, light) for m in meshes]
         except Exception:
-            self.group.release()
+            self.release()
             raise
 
     def _mesh(self, mesh, light):
@@ -375,10 +420,23 @@ class SpriteRenderer:
 
     def describe(self):
         w, h = self.size
-        return (f"render: opaque meshes ({len(self.meshes)}, depth test and writes), then "
-                f"{self.layout.count} point sprites ({self.blend} blend, depth test without "
-                f"writes), vertex texture fetch of {' and '.join(self.reads)} -> rgba8 {w}x{h} "
-                f"with depth")
+        order = "texel order" if self.sorter is None else "back to front"
+        line = (f"render: opaque meshes ({len(self.meshes)}, depth test and writes), then "
+                f"{self.layout.count} point sprites in {order} ({self.blend} blend, depth test "
+                f"without writes), vertex texture fetch of {' and '.join(self.reads)} -> rgba8 "
+                f"{w}x{h} with depth")
+        before = [self.sorter.describe()] if self.sorter is not None else []
+        if self.shadow is not None:
+            before.append(self.shadow.describe())
+        return "\n  ".join(before + [line])
+
+    def world_size(self, camera):
+        """A sprite's diameter in world units (before the per-particle spread) for ``camera``:
+        its pixel size at eye distance d is pixel_size / (sqrt(c) d) by the attenuation."""
+        if camera.ortho is not None:
+            raise ParameterError("shadows need a perspective camera (a sprite's world size)")
+        pixels_at_1 = self.size[1] / 2 / np.tan(np.radians(camera.fov) / 2)
+        return self.pixel_size / np.sqrt(self.attenuation[2]) / pixels_at_1
 
     def draw(self, buffers, camera, model=None):
         """Draw the meshes and the particles seen from ``camera``; returns the colour texture.
@@ -398,8 +456,16 @@ class SpriteRenderer:
                 state.set("u_view_projection", view_projection)
                 state.set("u_model", moved if moves else IDENTITY)
                 vao.render(moderngl.TRIANGLES)
+        if self.sorter is not None:
+            self.sorter.update(buffers, camera)
+        if self.shadow is not None:
+            self.shadow.draw(buffers, self.world_size(camera))
         self.stage.bind(buffers)
         self.sprite.use(self.sprite_unit)
+        if self.sorter is not None:
+            self.sorter.texture.use(self.order_unit)
+        if self.shadow is not None:
+            self.shadow.map.use(self.shadow_unit)
         self.stage.set_many({"u_view_projection": view_projection,
                              "u_eye": tuple(float(v) for v in camera.eye)})
         with self.ctx.scope(self.framebuffer, blend=self.blend, point_size=True, depth_test=True,
@@ -413,4 +479,6 @@ class SpriteRenderer:
         return read_rgb(self.image)
 
     def release(self):
-        self.group.release()
+        for part in (self.sorter, self.shadow, self.group):
+            if part is not None:
+                part.release()

@@ -64,15 +64,18 @@ def programs():
     from es2particles.scenes.collision import RECT
     from es2particles.simulation import FORMATS
 
-    from es2particles.scenes import Fountain
+    from es2particles.scenes import Fountain, Smoke
     from es2particles.scenes.fountain import FountainPhysics
+    from es2particles.scenes.smoke import SmokePhysics
+    from es2particles.sort import order_defines
 
     graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
               "clifford": Clifford().graph(), "wide": wide_graph(),
               "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph(),
               "fountain": Fountain().graph(),
               "fountain-bounce": Fountain(FountainPhysics(floor="bounce",
-                                                          emitters=((0, 0, 0), (1, 0, 1)))).graph()}
+                                                          emitters=((0, 0, 0), (1, 0, 1)))).graph(),
+              "smoke": Smoke().graph(), "smoke-tracers": Smoke(SmokePhysics(tau=0.0)).graph()}
     out = []
     for fmt in FORMATS:
         for rounding in ("nearest", "dither"):
@@ -93,6 +96,16 @@ def programs():
         prelude = stage_interface(("position", "life"), graphs["fountain"].quantities, fmt,
                                   sprite_uniforms).lines
         out.append((f"sprites-{fmt}", "sprites/sprite.vert", {}, prelude))
+        # sorted (both order formats), shadowed, growing with age; and the shadow map's pass
+        for order in ("rgba8", "rgba32f"):
+            defines = {**order_defines(order, 2 ** 18), "SORTED": None, "SHADOWED": None,
+                       "GROWTH": None}
+            out.append((f"sprites-sorted-{order}-shadowed-{fmt}", "sprites/sprite.vert",
+                        defines, prelude))
+        for defines in ({}, {"GROWTH": None}):
+            out.append((f"shadow-{'-'.join(defines) or 'plain'}-{fmt}", "sprites/shadow.vert",
+                        defines, stage_interface(("position", "life"),
+                                                 graphs["fountain"].quantities, fmt).lines))
     return out
 
 

@@ -14,12 +14,13 @@ from .collision import Collision
 from .collision3d import Collision3D
 from .dejong import DeJong
 from .fountain import Fountain
+from .smoke import Smoke
 
 ENTRY_POINT_GROUP = "es2particles.scenes"
-BUILT_IN = (DeJong, Clifford, Collision, Fountain, Collision3D)
+BUILT_IN = (DeJong, Clifford, Collision, Fountain, Collision3D, Smoke)
 
-__all__ = ["Attractor", "Clifford", "Collision", "Collision3D", "DeJong", "Defaults", "Fill", "Fountain", "Scene",
-           "installed_scenes", "ENTRY_POINT_GROUP"]
+__all__ = ["Attractor", "Clifford", "Collision", "Collision3D", "DeJong", "Defaults", "Fill",
+           "Fountain", "Scene", "Smoke", "installed_scenes", "ENTRY_POINT_GROUP"]
 
 
 def _entry_points():

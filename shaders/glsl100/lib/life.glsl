@@ -37,3 +37,18 @@ float life_fade(vec2 life)
 {
     return clamp(1.0 - life.x / max(life.y, 1e-6), 0.0, 1.0);
 }
+
+#ifdef GROWTH
+uniform float u_growth;
+
+// A sprite's size factor with age: 1 at birth, u_growth at the end of life (smoke puffs spread).
+float life_growth(vec2 life)
+{
+    return mix(1.0, u_growth, clamp(life.x / max(life.y, 1e-6), 0.0, 1.0));
+}
+#else
+float life_growth(vec2 life)
+{
+    return 1.0;
+}
+#endif

@@ -2,23 +2,40 @@
 // One textured billboard per particle (an ES 2.0 point sprite): the position fetched from the
 // state texture (vertex texture fetch), the size attenuated with the eye distance d as the GL
 // point parameters do, size * sqrt(1 / (a + b d + c d^2)), times a per-particle factor from a hash
-// of its texel (random sizes, as the seed), clamped to the driver's point-size range; below the
+// of its texel (random sizes, as the seed) and growing with age by u_growth (smoke puffs
+// spread), clamped to the driver's point-size range; below the
 // fade threshold the sprite keeps the threshold size and fades by (size / threshold)^2. Alpha
 // falls with age; unborn and dead particles are not drawn. read_position(), read_life() and the
 // uniforms are declared by the renderer (es2particles/bindings.py).
+// SORTED: vertex i draws the particle in slot i of the order texture (es2particles/sort.py), so
+// the sprites are drawn back to front. SHADOWED: the light reaching the particle through the
+// opacity shadow map (es2particles/shadow.py, lib/shadow.glsl) shades it.
 attribute vec2 a_texel;
 uniform mat4 u_view_projection;
 varying float v_alpha;
+varying float v_light;
 #include "lib/life.glsl"
+#ifdef SORTED
+#include "lib/order.glsl"
+uniform sampler2D u_order;
+#endif
+#ifdef SHADOWED
+#include "lib/shadow.glsl"
+#endif
 
 void main()
 {
-    vec3 p = read_position(a_texel);
-    vec2 life = read_life(a_texel);
+#ifdef SORTED
+    vec2 texel = order_particle_uv(u_order, a_texel, u_state_size);
+#else
+    vec2 texel = a_texel;
+#endif
+    vec3 p = read_position(texel);
+    vec2 life = read_life(texel);
     gl_Position = u_view_projection * vec4(p, 1.0);
     float d = distance(u_eye, p);
-    float random = hash44(vec4(floor(a_texel * u_state_size), 11.0, 13.0)).x;
-    float size = u_size.x * mix(1.0 - u_size.y, 1.0 + u_size.y, random)
+    float random = hash44(vec4(floor(texel * u_state_size), 11.0, 13.0)).x;
+    float size = u_size.x * mix(1.0 - u_size.y, 1.0 + u_size.y, random) * life_growth(life)
         * sqrt(1.0 / (u_attenuation.x + u_attenuation.y * d + u_attenuation.z * d * d));
     float fade = 1.0;
     if (size < u_fade) {
@@ -27,6 +44,11 @@ void main()
     }
     gl_PointSize = clamp(size, u_size.z, u_size.w);
     v_alpha = life_fade(life) * fade;
+#ifdef SHADOWED
+    v_light = shadow_light(p);
+#else
+    v_light = 1.0;
+#endif
     if (!life_alive(life)) {
         gl_Position = vec4(2.0, 2.0, 2.0, 1.0);
     }

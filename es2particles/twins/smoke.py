@@ -1,0 +1,60 @@
+"""float64 twin of the smoke's passes (``shaders/glsl100/smoke.frag``) for particles alive through
+the steps (emission is the fountain's clock, ``twins/life.py``): the air at a point and time, the
+inertial step (acceleration, then velocity and position from it) and the tracers' midpoint step.
+"""
+
+import numpy as np
+
+from . import flow
+
+
+def sphere(physics, t):
+    """(centre (3,), velocity (3,)) of the swaying sphere at time ``t``."""
+    p = physics
+    w = 2 * np.pi / p.sway[3]
+    amplitude = np.asarray(p.sway[:3], float)
+    return np.asarray(p.sphere[:3], float) + amplitude * np.sin(w * t), amplitude * w * np.cos(w * t)
+
+
+def air(physics, x, t):
+    """The air's velocity (n, 3) at points ``x`` (n, 3) and time ``t``."""
+    p = physics
+    centre, velocity = sphere(p, t)
+    offset = -p.noise[1] * p.noise[3] * np.asarray(p.wind, float) * t  # frozen turbulence,
+    skewed = offset + offset.sum() / 3  # wrapped on the noise's period, into +-144.5 cells
+    skewed -= 289.0 * np.floor(skewed / 289.0 + 0.5)
+    offset = skewed - skewed.sum() / 6
+    return flow.air_velocity(np.asarray(x, float), centre, p.sphere[3], np.asarray(p.wind, float),
+                             velocity, np.asarray(p.noise, float), offset)
+
+
+def outside_sphere(physics, x, t):
+    """Points inside the sphere of time ``t`` moved out onto its surface."""
+    centre, _ = sphere(physics, t)
+    d = x - centre
+    r = np.linalg.norm(d, axis=1, keepdims=True)
+    inside = (r < physics.sphere[3]) & (r > 0)
+    return np.where(inside, centre + d * (physics.sphere[3] / np.where(r > 0, r, 1)), x)
+
+
+def relaxation_time(physics):
+    """phi = tau (1 - exp(-dt / tau)): the velocity's share of the way to the air in a step."""
+    p = physics
+    return p.tau * -np.expm1(-p.dt / p.tau)
+
+
+def inertial_step(physics, x, v, t):
+    """One step of inertial particles from time ``t``: (acceleration, velocity, position)."""
+    p = physics
+    a = (air(p, x, t) - v) / p.tau + np.asarray(p.gravity, float)
+    phi = relaxation_time(p)
+    v_new = v + a * phi
+    x_new = x + v * p.dt + a * (p.tau * (p.dt - phi))
+    return a, v_new, outside_sphere(p, x_new, t + p.dt)
+
+
+def tracer_step(physics, x, t):
+    """One midpoint step of tracers (tau = 0) from time ``t``."""
+    p = physics
+    middle = x + air(p, x, t) * (0.5 * p.dt)
+    return outside_sphere(p, x + air(p, middle, t + 0.5 * p.dt) * p.dt, t + p.dt)

@@ -11,7 +11,7 @@ The map is float (RGBA32F, else RGBA16F) where the context can blend into it. RG
 baseline and the Mali sample's format, saturates at 1 per channel and rounds every blended
 addition to 1/255: the opacities are stored in units of ``RGBA8_UNIT`` (so a channel holds
 1 / RGBA8_UNIT opaque particles before it saturates) and a sprite's faint rim, below half a code
-per addition, adds nothing (``tests/test_shadow.py`` measures both).
+per addition, adds nothing (``tests/test_smoke.py`` measures both).
 """
 
 from dataclasses import dataclass
@@ -128,8 +128,9 @@ class ShadowMap:
     settings : OpacityShadow
     quantities, layout, state_format
         What the pass reads (position, life), as the sprite renderer's.
-    sprite : (h, w, 4) uint8
-        The sprite texture: its alpha is each particle's footprint in the map too.
+    sprite : texture
+        The sprite renderer's sprite texture (owned by it): its alpha is each particle's
+        footprint in the map too.
     opacity : float
         A sprite's opacity at its centre.
     size_spread, point_size_range, growth
@@ -145,22 +146,18 @@ class ShadowMap:
         self.unit = RGBA8_UNIT if self.format == "rgba8" else 1.0
         camera = settings.camera()
         self.view_projection = camera.uniform(1.0)
-        forward, front = settings.axis()
         self.focal = settings.size / 2 / np.tan(np.radians(camera.fov) / 2)  # pixels at depth 1
         self.size_spread, self.point_size_range = size_spread, point_size_range
+        self.opacity, self.sprite = float(opacity * self.unit), sprite
         self.group = ctx.group()
         try:
             self.stage = ParticleStage(self.group, "sprites/shadow.vert", "sprites/shadow.frag",
                                        "the shadow map pass", quantities, state_format, layout,
                                        {}, {} if growth == 1 else {"GROWTH": None})
             self.sprite_unit = len(self.stage.units)
-            self.stage.set_many({"u_sprite": self.sprite_unit,
-                                 "u_shadow_opacity": float(opacity * self.unit),
-                                 "u_growth": float(growth),
-                                 **self.uniforms()})
-            h, w = sprite.shape[:2]
-            self.sprite = self.group.texture((w, h), "rgba8", data=sprite.tobytes(),
-                                             filter_nearest=False)
+            self.stage.set_many({"u_sprite": self.sprite_unit, **self.uniforms()})
+            if growth != 1:
+                self.stage.set_many({"u_growth": float(growth)})
             self.map = self.group.texture((settings.size, settings.size), self.format)
             self.framebuffer = self.group.framebuffer(self.map)
         except Exception:
@@ -175,16 +172,23 @@ class ShadowMap:
                 "u_light_eye": tuple(map(float, s.light)),
                 "u_light_axis": (*map(float, forward), float(front)),
                 "u_shadow": (float(s.layer_depth() * LAYERS), 1.0 / self.unit,
-                             float(s.extinction), float(s.ambient))}
+                             float(s.extinction), float(s.ambient)),
+                "u_shadow_size": float(s.size), "u_shadow_opacity": self.opacity}
+
+    def sizes(self, world_size):
+        """``u_light_size`` for sprites of diameter ``world_size`` (world units, before the
+        per-particle factor): at distance d from the light they span world_size / d radians, as
+        they do from the eye."""
+        lo, hi = self.point_size_range
+        return {"u_light_size": (float(world_size * self.focal), float(self.size_spread),
+                                 float(lo), float(hi))}
 
     def draw(self, buffers, world_size):
-        """Clear the map and add every particle, each a sprite of ``world_size`` (its diameter
-        in world units, before the per-particle spread); returns the map."""
-        lo, hi = self.point_size_range
+        """Clear the map and add every particle, each a sprite of ``world_size`` (see
+        :meth:`sizes`); returns the map."""
         self.stage.bind(buffers)
         self.sprite.use(self.sprite_unit)
-        self.stage.set_many({"u_light_size": (float(world_size * self.focal),
-                                              float(self.size_spread), float(lo), float(hi))})
+        self.stage.set_many(self.sizes(world_size))
         with self.ctx.scope(self.framebuffer, blend="add", point_size=True, sprites=True):
             self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
             self.stage.vao.render(moderngl.POINTS)

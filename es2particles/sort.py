@@ -390,6 +390,9 @@ class SortingNetwork:
         self.release()
 
 
+STATE_FORMATS = ("rgba8", "rgba16f", "rgba32f")
+
+
 class DepthSorter:
     """Orders particles back to front for a camera: the key pass and a :class:`SortingNetwork`.
 
@@ -424,20 +427,23 @@ class DepthSorter:
         if passes_per_frame is not None:
             passes_per_frame = int(check_range("passes_per_frame", passes_per_frame, 1, None,
                                                integer=True))
+        if state_format not in STATE_FORMATS:
+            raise ParameterError(f"state_format must be one of {STATE_FORMATS}, got "
+                                 f"{state_format!r}")
         if fmt is None:
             fmt = ("rgba32f" if position_quantity.format_in(state_format) != "rgba8"
                    and ctx.caps.renderable.get("rgba32f") else "rgba8")
         self.ctx, self.quantity, self.layout = ctx, position_quantity, state_layout
         self.network = SortingNetwork(ctx, state_layout.count, fmt)
-        self.passes_per_frame = passes_per_frame
-        if passes_per_frame is not None and passes_per_frame >= self.network.passes:
-            self.passes_per_frame = None  # a whole network each frame
-        # key.frag calls read_position whatever the quantity's name: its interface is written for
-        # a copy named `position`, fed from the quantity's own buffer.
-        renamed = replace(position_quantity, name="position")
-        self.interface = stage_interface(("position",), {"position": renamed}, state_format)
-        self.group = ctx.group()
         try:
+            self.passes_per_frame = passes_per_frame
+            if passes_per_frame is not None and passes_per_frame >= self.network.passes:
+                self.passes_per_frame = None  # a whole network each frame
+            # key.frag calls read_position whatever the quantity's name: its interface is
+            # written for a copy named `position`, fed from the quantity's own buffer.
+            renamed = replace(position_quantity, name="position")
+            self.interface = stage_interface(("position",), {"position": renamed}, state_format)
+            self.group = ctx.group()
             self.command = FullscreenCommand(self.group, "sort/key.frag", "depth sort key pass",
                                              self.network.defines(), self.interface)
             state = self.command.state

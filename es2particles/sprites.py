@@ -284,7 +284,7 @@ class SpriteRenderer:
     state_format : str
     meshes : list of Mesh
     sprite : str
-        ``fireball``, ``disc`` or a PNG path.
+        ``fireball``, ``disc``, ``smoke`` or a PNG path.
     point_size : float
         Sprite size in pixels of an image 1024 high (it scales with the image height) at the eye
         distance where the attenuation is 1.
@@ -347,28 +347,45 @@ class SpriteRenderer:
                     "u_attenuation": (a, b, c), "u_fade": float(fade)}
         opacity = float(check_range("opacity", opacity, 0.0, 1.0))
         if shadow is not None and (a, b) != (0.0, 0.0):
-            raise ParameterError(f"shadow needs attenuation (0, 0, c): a sprite of one world size "
-                                 f"(got {tuple(attenuation)})")
+            raise ParameterError(f"shadow needs attenuation (0, 0, c): sprites that shrink as "
+                                 f"1 / distance, as their shadows do (got {tuple(attenuation)})")
         self.attenuation = (a, b, c)
         growth = float(check_range("growth", growth, 0.01, 100.0))
         texture = load_sprite(sprite)
+        if sort is not None and sort != "full":
+            sort = int(check_range("sort (merge passes per frame)", sort, 1, 10 ** 6,
+                                   integer=True))
+        # ES 2.0 promises no vertex texture units at all; each part of a read quantity, the
+        # order, and the shadow map with the sprite (its footprint there) take one.
+        needed = sum(q.parts(state_format) for q in quantities.values()) + (sort is not None) \
+            + 2 * (shadow is not None)
+        if needed > ctx.caps.max_vertex_texture_units:
+            raise CapabilityError(f"the sprites' vertex shader samples {needed} textures; this "
+                                  f"context allows {ctx.caps.max_vertex_texture_units} "
+                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS): leave out sorting or "
+                                  "shadows, or store the state in a float format (one texture "
+                                  "per quantity)")
         self.sorter = self.shadow = None
         self.group = ctx.group()
         try:
+            h, w = texture.shape[:2]
+            # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's
+            # first row belongs (meshes' textures are flipped: their v = 0 is the bottom).
+            self.sprite = self.group.texture((w, h), "rgba8", data=texture.tobytes(),
+                                             filter_nearest=False)
             defines, texels = ({} if growth == 1 else {"GROWTH": None}), None
             if sort is not None:
                 from .sort import DepthSorter
 
-                per_frame = None if sort == "full" else sort
                 self.sorter = DepthSorter(ctx, quantities["position"], layout, state_format,
-                                          passes_per_frame=per_frame)
+                                          passes_per_frame=None if sort == "full" else sort)
                 defines.update(self.sorter.defines(), SORTED=None)
                 texels = self.sorter.slot_uv()
             if shadow is not None:
                 from .shadow import ShadowMap
 
-                self.shadow = ShadowMap(ctx, shadow, quantities, layout, state_format, texture,
-                                        opacity, size_spread, (lo, hi), growth)
+                self.shadow = ShadowMap(ctx, shadow, quantities, layout, state_format,
+                                        self.sprite, opacity, size_spread, (lo, hi), growth)
                 defines["SHADOWED"] = None
             self.stage = ParticleStage(self.group, "sprites/sprite.vert", "sprites/sprite.frag",
                                        "the sprite renderer", quantities, state_format, layout,
@@ -376,16 +393,15 @@ class SpriteRenderer:
             units = len(self.stage.units)
             self.sprite_unit, self.order_unit, self.shadow_unit = units, units + 1, units + 2
             self.stage.set_many({"u_sprite": self.sprite_unit, "u_opacity": opacity,
-                                 "u_tint": tuple(float(v) for v in tint),
-                                 "u_order": self.order_unit, "u_shadow_map": self.shadow_unit,
-                                 "u_growth": growth})
+                                 "u_tint": tuple(float(v) for v in tint)})
+            if growth != 1:
+                self.stage.set_many({"u_growth": growth})
+            if self.sorter is not None:
+                self.stage.set_many({"u_order": self.order_unit})
             if self.shadow is not None:
-                self.stage.set_many(self.shadow.uniforms())
-            h, w = texture.shape[:2]
-            # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's
-            # first row belongs (meshes' textures are flipped: their v = 0 is the bottom).
-            self.sprite = self.group.texture((w, h), "rgba8", data=texture.tobytes(),
-                                             filter_nearest=False)
+                self.stage.set_many({"u_shadow_map": self.shadow_unit,
+                                     "u_shadow_sprite": self.sprite_unit,
+                                     **self.shadow.uniforms()})
             self.image = self.group.texture(self.size, "rgba8", filter_nearest=False)
             self.framebuffer = self.group.framebuffer(self.image, self.group.depth(self.size))
             self.meshes = [self._mesh(m, light) for m in meshes]
@@ -459,7 +475,9 @@ class SpriteRenderer:
         if self.sorter is not None:
             self.sorter.update(buffers, camera)
         if self.shadow is not None:
-            self.shadow.draw(buffers, self.world_size(camera))
+            world_size = self.world_size(camera)
+            self.shadow.draw(buffers, world_size)
+            self.stage.set_many(self.shadow.sizes(world_size))
         self.stage.bind(buffers)
         self.sprite.use(self.sprite_unit)
         if self.sorter is not None:

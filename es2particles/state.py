@@ -143,6 +143,9 @@ class Layout:
         return uv.reshape(-1, 2)[: self.count]
 
 
+HALF_MAX = 65504.0  # the largest finite half float
+
+
 class StateBuffer:
     """One quantity's textures: one per part, each twice for ping-pong when last step's value is
     read, else once.
@@ -155,6 +158,12 @@ class StateBuffer:
     def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
         if fmt not in FORMATS:
             raise ParameterError(f"format must be one of {list(FORMATS)}, got {fmt!r}")
+        if fmt == "rgba16f":
+            reach = float(np.max(np.abs(np.concatenate([quantity.lo, quantity.hi]))))
+            if reach > HALF_MAX:
+                raise ParameterError(f"quantity {quantity.name!r} reaches {reach:.3g}, beyond "
+                                     f"rgba16f's largest value {HALF_MAX:g}: store it in rgba8 "
+                                     "or rgba32f")
         self.quantity, self.layout, self.fmt = quantity, layout, fmt
         # textures[k] = [front, back] (or [only]) of part k
         self.textures = [[group.texture(layout.size, fmt) for _ in range(buffers)]

@@ -28,6 +28,7 @@ NUMERIC_OPTIONS = {
                "--bloom-threshold", "--bloom-radius", "--bloom-intensity"],
     "clifford": ["--a", "--d"],
     "collision": ["--dt", "--gravity", "--drag", "--sliding", "--bounce"],
+    "smoke": ["--dt", "--tau", "--opacity"],
 }
 
 

@@ -16,6 +16,7 @@ import numpy as np
 from ..camera import Camera, orbit
 from ..errors import ParameterError, check_range
 from ..graph import PassGraph
+from ..shadow import OpacityShadow
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene
 
@@ -24,6 +25,7 @@ LOW, HIGH = -0.5, 7.5  # its y range: 8 m
 CAMERAS = ("fixed", "orbit")
 SORTS = ("full", "off")  # or a number of merge passes per frame (Latta's spreading)
 EYE, TARGET = (0.0, 2.6, 7.8), (0.0, 2.4, 0.0)
+SHADOW_RADIUS = 3.6  # the sphere around TARGET that the shadow map's layers divide
 
 
 @dataclass(frozen=True)
@@ -42,7 +44,6 @@ class SmokePhysics:
     emitter: tuple = (0.0, 0.45, 0.0, 0.6)  # orbit centre, orbit radius
     emission: tuple = (5.0, 0.25)  # orbit period s, spawn ball radius m
     lifetime: tuple = (4.0, 6.0)
-    max_speed: float = 6.0
 
     def __post_init__(self):
         check_range("dt", self.dt, 1e-4, 0.25)
@@ -65,7 +66,6 @@ class SmokePhysics:
         check_range("emitter orbit radius", self.emitter[3], 0.0, HALF)
         check_range("emission orbit period", self.emission[0], 0.1, 1e4)
         check_range("emission spawn radius", self.emission[1], 0.0, 1.0)
-        check_range("max_speed", self.max_speed, 0.1, 100.0)
         lo, hi = (check_range("lifetime", v, self.dt, longest_life(self.dt))
                   for v in self.lifetime)
         if hi < lo:
@@ -82,21 +82,38 @@ class SmokePhysics:
                                  f"{HALF:g}] and y in ({LOW:g}, {HIGH:g})")
 
     @property
+    def speed_bound(self):
+        """A bound of the particles' speed, the velocity's range: the air's speed bound plus the
+        settling speed |g| tau. The air: the wind, the dipole (at most 1.5 |wind - V| at the
+        sphere, V at most the sway's peak speed), and the curl noise, whose terms are bounded by
+        the noise's gradient bound G (``twins/flow.py``) at frequency s: |curl psi| <= 2 sqrt(3)
+        s G, the ramp's |alpha'| |psi| <= (15/8) sqrt(3) / ramp distance, and |psi / r + J^T n|
+        <= sqrt(3) (1 / R + s G)."""
+        from ..twins.flow import NOISE_GRADIENT_BOUND as G
+
+        wind = np.linalg.norm(self.wind)
+        sway = np.linalg.norm(self.sway[:3]) * 2 * np.pi / self.sway[3]
+        amplitude, s, ramp, _ = self.noise
+        root3 = np.sqrt(3)
+        noise = amplitude * (2 * root3 * s * G + 15 / 8 * root3 / ramp
+                             + root3 * (1 / self.sphere[3] + s * G))
+        return float(wind + 1.5 * (wind + sway) + noise
+                     + np.linalg.norm(self.gravity) * self.tau)
+
+    @property
     def acceleration_bound(self):
-        """|a| per component is at most (|u_air| + |v|) / tau + |g|, both speeds clamped."""
-        return 2 * self.max_speed / self.tau + float(np.max(np.abs(self.gravity)))
+        """|a| = |u_air - v| / tau + |g| <= 2 speed_bound / tau + |g| per component."""
+        return 2 * self.speed_bound / self.tau + float(np.linalg.norm(self.gravity))
 
     def uniforms(self):
+        from ..twins.smoke import relaxation
+
         f = lambda values: tuple(float(v) for v in values)  # noqa: E731
-        return {"u_dt": float(self.dt), "u_tau": float(self.tau), "u_gravity": f(self.gravity),
+        return {"u_dt": float(self.dt), "u_tau": float(self.tau),
+                "u_relax": f(relaxation(self.dt, self.tau)), "u_gravity": f(self.gravity),
                 "u_wind": f(self.wind), "u_noise": f(self.noise), "u_sphere": f(self.sphere),
                 "u_sway": f(self.sway), "u_emitter": f(self.emitter),
                 "u_emission": f(self.emission), "u_lifetime": f(self.lifetime)}
-
-    def sphere_at(self, t):
-        """The sphere's centre at time ``t`` (as ``sphere_centre`` in smoke.frag)."""
-        w = 2 * np.pi / self.sway[3]
-        return np.asarray(self.sphere[:3]) + np.asarray(self.sway[:3]) * np.sin(w * t)
 
 
 def _numbers(name, text, count):
@@ -127,10 +144,16 @@ class Smoke(Scene):
         self.light = tuple(check_range("light", v, -100.0, 100.0) for v in light)
         if len(self.colour) != 3 or len(self.light) != 3:
             raise ParameterError("colour and light must be three numbers each")
-        if np.linalg.norm(np.subtract(self.light, TARGET)) < 3.5:
-            raise ParameterError(f"light must be at least 3.5 m from the smoke's centre "
-                                 f"{TARGET}, got {self.light}")
-        self.physics, self.shadows, self.sort, self.camera = physics, shadows, sort, camera
+        self.shadow = None
+        if shadows:
+            near = 1.1 * SHADOW_RADIUS
+            if np.linalg.norm(np.subtract(self.light, TARGET)) < near:
+                raise ParameterError(f"light must be at least {near:.3g} m from the smoke's "
+                                     f"centre {TARGET} (outside the shadowed sphere), got "
+                                     f"{self.light}")
+            self.shadow = OpacityShadow(light=self.light, centre=TARGET, radius=SHADOW_RADIUS,
+                                        extinction=0.6, ambient=0.3)
+        self.physics, self.sort, self.camera = physics, sort, camera
         self.opacity = check_range("opacity", opacity, 0.0, 1.0)
         # Steady from the first frame: one longest lifetime before it.
         steps = int(np.ceil(physics.lifetime[1] / physics.dt))
@@ -207,7 +230,7 @@ class Smoke(Scene):
         # Declared in both cases; tracers read neither, so the plan leaves both out (and their
         # range, unbounded as tau -> 0, is never stored).
         bound = p.acceleration_bound if p.tau > 0 else 1.0
-        g.quantity("velocity", -p.max_speed, p.max_speed, components=3)
+        g.quantity("velocity", -p.speed_bound, p.speed_bound, components=3)
         g.quantity("acceleration", -bound, bound, components=3)
         g.add("acceleration", "smoke.frag", writes="acceleration", reads=("position", "velocity"),
               uniforms=uniforms, defines={"WRITE_ACCELERATION": None})
@@ -240,8 +263,10 @@ class Smoke(Scene):
         return [sprites.floor(HALF, cell=0.5), replace(ball, moves=True)]
 
     def model_at(self, step):
+        from ..twins.smoke import sphere
+
         m = np.eye(4)
-        m[:3, 3] = self.physics.sphere_at(step * self.physics.dt)
+        m[:3, 3] = sphere(self.physics, step * self.physics.dt)[0]
         return m
 
     def camera_at(self, frame, frames):
@@ -251,16 +276,11 @@ class Smoke(Scene):
         return Camera(eye=EYE, target=TARGET)
 
     def renderer_options(self):
-        from ..shadow import OpacityShadow
-
         d0 = np.linalg.norm(np.subtract(EYE, TARGET))
-        shadow = OpacityShadow(light=self.light, centre=TARGET, radius=3.6, extinction=0.6,
-                               ambient=0.3) if self.shadows \
-            else None
         return {"blend": "over", "sprite": "smoke", "size_spread": 0.35,
                 "attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "tint": (*self.colour, 1.0),
                 "opacity": self.opacity, "light": self.light, "background": (0.11, 0.12, 0.15),
-                "sort": None if self.sort == "off" else self.sort, "shadow": shadow,
+                "sort": None if self.sort == "off" else self.sort, "shadow": self.shadow,
                 "growth": 2.5}
 
     def describe(self):

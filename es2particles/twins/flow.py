@@ -14,7 +14,8 @@ import numpy as np
 F3, G3 = 1 / 3, 1 / 6  # simplex skew and unskew factors in 3D
 # Scales the sum of the four corners' kernels to about [-1, 1]. The largest |sum| is 0.0130072
 # (gradient ascent from 20,000 random starts; a million random points reach 0.0130005): one
-# kernel's peak, sqrt(2) (4/9)^4 / 3 = 0.0130062 at |d| = sqrt(2)/6 along its gradient, plus a
+# kernel's peak, (4/9)^4 |g| |d| = (4/9)^4 / 3 = 0.0130062 at |d| = sqrt(2)/6 along its gradient
+# (|g| = sqrt(2)), plus a
 # trace of its neighbours'. 76 maps the extremes to +-0.9885 (standard deviation 0.39);
 # tests/test_flow.py checks the range.
 NOISE_SCALE = 76.0

@@ -37,20 +37,33 @@ def outside_sphere(physics, x, t):
     return np.where(inside, centre + d * (physics.sphere[3] / np.where(r > 0, r, 1)), x)
 
 
-def relaxation_time(physics):
-    """phi = tau (1 - exp(-dt / tau)): the velocity's share of the way to the air in a step."""
+def relaxation(dt, tau):
+    """(phi, tau (dt - phi)) with phi = tau (1 - exp(-dt / tau)): what a step's acceleration
+    a = (u - v) / tau + g adds to the velocity and, besides v dt, to the position, for the exact
+    solution of v' = a with u and g held over the step. In float64 and without cancellation (the
+    passes get them as uniforms: in float32, tau (dt - phi) is noise once tau / dt passes ~100)."""
+    if tau <= 0:
+        return 0.0, 0.0
+    x = dt / tau
+    phi = tau * -np.expm1(-x)
+    # dt - phi = tau (x - 1 + exp(-x)), x^2 / 2 - x^3 / 6 + ... for small x
+    rest = x * x * (0.5 - x / 6 + x * x / 24 - x ** 3 / 120) if x < 1e-2 else x + np.expm1(-x)
+    return phi, tau * tau * rest
+
+
+def relax(x, v, air_velocity, physics):
+    """One exact step of v' = (u - v) / tau + g for the air ``air_velocity`` held over it:
+    (acceleration, velocity, position) as the three passes compute them."""
     p = physics
-    return p.tau * -np.expm1(-p.dt / p.tau)
+    a = (air_velocity - v) / p.tau + np.asarray(p.gravity, float)
+    phi, lag = relaxation(p.dt, p.tau)
+    return a, v + a * phi, x + v * p.dt + a * lag
 
 
 def inertial_step(physics, x, v, t):
     """One step of inertial particles from time ``t``: (acceleration, velocity, position)."""
-    p = physics
-    a = (air(p, x, t) - v) / p.tau + np.asarray(p.gravity, float)
-    phi = relaxation_time(p)
-    v_new = v + a * phi
-    x_new = x + v * p.dt + a * (p.tau * (p.dt - phi))
-    return a, v_new, outside_sphere(p, x_new, t + p.dt)
+    a, v_new, x_new = relax(x, v, air(physics, x, t), physics)
+    return a, v_new, outside_sphere(physics, x_new, t + physics.dt)
 
 
 def tracer_step(physics, x, t):

@@ -7,13 +7,16 @@
 //   VELOCITY      v' = v + a phi,                 phi = tau (1 - exp(-dt / tau))
 //   POSITION      x' = x + v dt + a tau (dt - phi)
 // the exact solution over the step for the air seen at the step's start, so any tau > 0 is
-// stable (for tau << dt the particle follows the air, v' -> u_air + g tau). TRACER (tau = 0):
+// stable (for tau << dt the particle follows the air, v' -> u_air + g tau). phi and tau (dt - phi)
+// come as the uniform u_relax, computed in float64 (twins/smoke.py, relaxation): in float32,
+// tau (dt - phi) cancels to noise once tau / dt passes ~100. TRACER (tau = 0):
 // the position pass alone reads the air itself, x' = x + u_air(x + u_air(x, t) dt / 2, t + dt / 2) dt
 // (the midpoint rule), and velocity and acceleration are not computed at all. LIFE: the exact step
 // clock of lib/life.glsl. A particle that ends inside the sphere (a step's chord across a curved
-// streamline) is put back on its surface.
-// Uniforms, declared by the graph from the scene (scenes/smoke.py): u_dt, u_tau, u_gravity,
-// u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
+// streamline) is put back on its surface; one that leaves the position range is put back at the
+// emitter (keeping its velocity and the rest of its life: the life clock does not see it).
+// Uniforms, declared by the graph from the scene (scenes/smoke.py): u_dt, u_tau, u_relax,
+// u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
 // (rest centre, radius), u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
 // u_emission (orbit period, spawn radius), u_lifetime. numpy twin: es2particles/twins/smoke.py.
 #include "lib/life.glsl"
@@ -76,11 +79,6 @@ bool in_range(vec3 x)  // (only the position pass knows the range)
 }
 #endif
 
-float relaxation_time()
-{
-    return u_tau * (1.0 - exp(-u_dt / u_tau));  // phi: dt for tau >> dt, tau for tau << dt
-}
-
 void main()
 {
     float t = u_step * u_dt;  // the step's start
@@ -98,7 +96,7 @@ void main()
     bool emits = life_emits(life, life + vec2(u_dt, 0.0), u_dt);
 #  if defined(WRITE_VELOCITY)
     vec3 v = read_velocity(v_uv);
-    write_velocity(emits ? u_wind : v + read_acceleration(v_uv) * relaxation_time());
+    write_velocity(emits ? u_wind : v + read_acceleration(v_uv) * u_relax.x);
 #  else
     vec3 x = read_position(v_uv);
     if (!emits && life_alive(life)) {
@@ -106,8 +104,7 @@ void main()
         vec3 middle = x + air(x, t) * (0.5 * u_dt);
         x += air(middle, t + 0.5 * u_dt) * u_dt;
 #    else
-        x += read_velocity(v_uv) * u_dt
-            + read_acceleration(v_uv) * (u_tau * (u_dt - relaxation_time()));
+        x += read_velocity(v_uv) * u_dt + read_acceleration(v_uv) * u_relax.y;
 #    endif
         x = outside_sphere(x, t + u_dt);
     }

@@ -32,10 +32,16 @@ bool life_emits(vec2 life, vec2 aged, float dt)
     return born || ended;
 }
 
+// How much of its life a particle has lived: 0 at birth, 1 at the end.
+float life_share(vec2 life)
+{
+    return clamp(life.x / max(life.y, 1e-6), 0.0, 1.0);
+}
+
 // Fade with age: 1 at birth, 0 at the end of life.
 float life_fade(vec2 life)
 {
-    return clamp(1.0 - life.x / max(life.y, 1e-6), 0.0, 1.0);
+    return 1.0 - life_share(life);
 }
 
 #ifdef GROWTH
@@ -44,7 +50,7 @@ uniform float u_growth;
 // A sprite's size factor with age: 1 at birth, u_growth at the end of life (smoke puffs spread).
 float life_growth(vec2 life)
 {
-    return mix(1.0, u_growth, clamp(life.x / max(life.y, 1e-6), 0.0, 1.0));
+    return mix(1.0, u_growth, life_share(life));
 }
 #else
 float life_growth(vec2 life)

@@ -72,7 +72,7 @@ vec4 simplex3(vec3 p)
 {
     const float F3 = 1.0 / 3.0;  // skew: the simplex lattice onto the cube lattice
     const float G3 = 1.0 / 6.0;  // and back
-    // 76: the largest raw sum, 0.0130072 (one kernel's peak sqrt(2) (4/9)^4 / 3 and a trace of
+    // 76: the largest raw sum, 0.0130072 (one kernel's peak (4/9)^4 / 3 and a trace of
     // its neighbours', found by gradient ascent in the twin), maps to +-0.9885.
     const float NOISE_SCALE = 76.0;
     vec3 cell = floor(p + (p.x + p.y + p.z) * F3);

@@ -1,10 +1,10 @@
 #version 100
 // One textured billboard per particle (an ES 2.0 point sprite): the position fetched from the
 // state texture (vertex texture fetch), the size attenuated with the eye distance d as the GL
-// point parameters do, size * sqrt(1 / (a + b d + c d^2)), times a per-particle factor from a hash
-// of its texel (random sizes, as the seed) and growing with age by u_growth (smoke puffs
-// spread), clamped to the driver's point-size range; below the
-// fade threshold the sprite keeps the threshold size and fades by (size / threshold)^2. Alpha
+// point parameters do, size * sqrt(1 / (a + b d + c d^2)), times a per-particle factor (random
+// sizes, as the seed, and growth with age: lib/sprite.glsl), clamped to the driver's point-size
+// range; below the fade threshold the sprite keeps the threshold size and fades by
+// (size / threshold)^2. Alpha
 // falls with age; unborn and dead particles are not drawn. read_position(), read_life() and the
 // uniforms are declared by the renderer (es2particles/bindings.py).
 // SORTED: vertex i draws the particle in slot i of the order texture (es2particles/sort.py), so
@@ -14,7 +14,7 @@ attribute vec2 a_texel;
 uniform mat4 u_view_projection;
 varying float v_alpha;
 varying float v_light;
-#include "lib/life.glsl"
+#include "lib/sprite.glsl"
 #ifdef SORTED
 #include "lib/order.glsl"
 uniform sampler2D u_order;
@@ -34,8 +34,7 @@ void main()
     vec2 life = read_life(texel);
     gl_Position = u_view_projection * vec4(p, 1.0);
     float d = distance(u_eye, p);
-    float random = hash44(vec4(floor(texel * u_state_size), 11.0, 13.0)).x;
-    float size = u_size.x * mix(1.0 - u_size.y, 1.0 + u_size.y, random) * life_growth(life)
+    float size = u_size.x * sprite_scale(texel, life, u_size.y)
         * sqrt(1.0 / (u_attenuation.x + u_attenuation.y * d + u_attenuation.z * d * d));
     float fade = 1.0;
     if (size < u_fade) {
@@ -45,7 +44,7 @@ void main()
     gl_PointSize = clamp(size, u_size.z, u_size.w);
     v_alpha = life_fade(life) * fade;
 #ifdef SHADOWED
-    v_light = shadow_light(p);
+    v_light = shadow_light(p, texel, life);
 #else
     v_light = 1.0;
 #endif

@@ -4,7 +4,8 @@ Run: ``python benchmarks/bench.py`` (after ``pip install .``; ``pip install ".[b
 datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes dejong,collision``,
 ``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak); ``--scenes fountain``
 adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pixels, both
-blend modes). It prints tables and writes
+blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
+shadow map, whole frames with and without each part). It prints tables and writes
 them as Markdown to ``out/bench/bench.md``.
 
 Each time is the median (and min, max) of the repeats after a warm-up, with the GL work finished
@@ -197,6 +198,91 @@ def fountain_section(ctx, sizes, repeats, emit):
                          f"({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | - | - |")
 
 
+def smoke_section(ctx, sizes, repeats, emit):
+    """The smoke: its step (acceleration, velocity, position, life), the back-to-front sort (key
+    pass + the whole odd-even merge network, or 8 passes of it spread over frames) against the
+    CPU route of the same order (read the positions back, numpy argsort of the view depth, upload
+    the order), the opacity shadow map pass, and the whole frame (step, sort, shadow map, meshes
+    and sprites) with each part switched off in turn."""
+    from es2particles.scenes.smoke import Smoke
+    from es2particles.sort import forward
+
+    emit("| N | stage | ours ms (min-max) | CPU route ms | CPU/ours |")
+    emit("|---|---|---|---|---|")
+    finish = ctx.mgl.finish
+    for log2n in sizes:
+        count = 2 ** log2n
+        scene = Smoke()
+        camera = scene.camera_at(0, 1)
+        with Pipeline(ctx, scene, count, SIZE) as p:
+            p.warm_up()
+            row = lambda stage, t, peer=None: emit(  # noqa: E731
+                f"| 2^{log2n} | {stage} | {fmt_ms(t)} ({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | "
+                f"{fmt_ms(peer)} | {'-' if peer is None else f'{peer[0] / t[0]:.2f}'} |")
+            row("step", timed(lambda: p.step(1), repeats, finish))
+            renderer, buffers = p.renderer, p.sim.buffers
+            sorter = renderer.sorter
+            network = sorter.network
+            order_texture = ctx.texture((network.width, network.height), network.fmt)
+
+            def cpu_sort():  # the order a CPU would make: read back, sort, upload
+                depth = (p.sim.download("position") - camera.eye) @ forward(camera)
+                order = np.argsort(-depth, kind="stable")
+                slots = np.arange(network.slots)
+                slots[:count] = order
+                order_texture.write(network.encode(np.zeros(network.slots, np.int64),
+                                                   slots).tobytes())
+
+            try:
+                peer = timed(cpu_sort, repeats, finish)
+            finally:
+                ctx.free(order_texture)
+            row(f"sort: key + {sorter.network.passes} merge passes", timed(
+                lambda: sorter.update(buffers, camera), repeats, finish), peer)
+            row("shadow map pass", timed(
+                lambda: renderer.shadow.draw(buffers, renderer.world_size(camera)), repeats,
+                finish))
+            row("frame: step, sort, shadow, render", timed(
+                lambda: (p.step(1), p.render()), repeats, finish))
+        for label, options in (("frame, sort spread 8 passes", {"sort": 8}),
+                               ("frame, unsorted", {"sort": "off"}),
+                               ("frame, no shadows", {"shadows": False})):
+            with Pipeline(ctx, Smoke(**options), count, SIZE) as p:
+                p.warm_up()
+                row(label, timed(lambda: (p.step(1), p.render()), repeats, finish))
+    smoke_sortedness(ctx, sizes[0], emit)
+
+
+def smoke_sortedness(ctx, log2n, emit, frames=45):
+    """How sorted the drawn order stays when the merge passes are spread over frames (Latta
+    2004): the smoke moving under its orbiting camera, after ``frames`` frames of one step."""
+    from es2particles.scenes.smoke import Smoke
+    from es2particles.sort import forward, sortedness
+
+    emit()
+    emit(f"Order of the smoke at 2^{log2n} after {frames} frames of one step, the camera orbiting "
+         "(sort.sortedness against the true view depth):")
+    emit()
+    emit("| sort | passes per frame | neighbours out of order | pairs out of order | mean "
+         "displacement | mean depth error |")
+    emit("|---|---|---|---|---|---|")
+    for sort in ("full", 32, 16, 8, 4, "off"):
+        scene = Smoke(sort=sort, camera="orbit", shadows=False)
+        with Pipeline(ctx, scene, 2 ** log2n, (256, 256)) as p:
+            p.warm_up()
+            for frame in range(frames):
+                p.step(1)
+                p.render(frame, 4 * frames)
+            camera = scene.camera_at(frames - 1, 4 * frames)
+            depth = (p.sim.download("position") - camera.eye) @ forward(camera)
+            sorter = p.renderer.sorter
+            order = sorter.order() if sorter is not None else np.arange(2 ** log2n)
+            passes = "-" if sorter is None else (sorter.network.passes if sort == "full" else sort)
+            m = sortedness(order, depth)
+            emit(f"| {sort} | {passes} | {100 * m.adjacent:.2f}% | {100 * m.discordant:.3f}% | "
+                 f"{100 * m.displacement:.3f}% | {100 * m.depth_error:.3f}% |")
+
+
 def fmt_ms(t):
     return "-" if t is None else f"{t[0] * 1e3:.1f}"
 
@@ -228,6 +314,10 @@ def main(argv=None):
             emit()
             if scene == "fountain":
                 fountain_section(ctx, sizes, args.repeats, emit)
+                continue
+            if scene == "smoke":
+                smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],
+                              args.repeats, emit)
                 continue
             emit("| N | stage | ours ms (min-max) | fps | numpy ms | numpy/ours | datashader ms | "
                  "datashader/ours |")

@@ -286,7 +286,9 @@ class Smoke(Scene):
     def describe(self):
         p = self.physics
         motion = (f"inertial particles, tau {p.tau:g} s: acceleration a = (u_air - v) / tau + g, "
-                  f"then velocity and position from this step's a (exact over the step)"
+                  f"then velocity and position from this step's a (exact over the step); "
+                  f"velocity range +-{p.speed_bound:.3g} m/s (a bound of the air's speed), "
+                  f"acceleration +-{p.acceleration_bound:.3g} m/s^2"
                   if p.tau > 0 else
                   "tracers (tau 0): the position pass reads the air itself (midpoint rule); "
                   "no acceleration or velocity")

@@ -10,8 +10,9 @@ two can never disagree:
 - for each quantity read: its samplers ``u_q`` (and ``u_q_1``, the second RGBA8 part of a quantity
   of 3 or 4 components) and ``read_q(uv)``, returning float, vec2, vec3 or vec4;
 - for the written quantity: ``write_q(value)`` (and ``write(value)``, the same, for a shader that
-  several passes share), which sets gl_FragColor to the part this draw writes (ES 2.0 has one
-  render target: a two-part quantity is written by two draws);
+  several passes share), which sets the part this draw writes (ES 2.0 has one render target: a
+  two-part quantity is written by two draws); the shader's ``main`` is renamed, and a generated
+  ``main`` after it calls it and writes gl_FragColor once, outside any branch (the epilogue);
 - ``uniform sampler2D u_t`` for each scene texture ``t`` the pass samples;
 - each of the pass's own uniforms, typed from its value: a number is a float, 2 to 4 numbers a
   vec2..vec4, a (k, n) array a vecn[k];
@@ -70,6 +71,7 @@ class Interface:
     ``uniforms``: the stage's own uniform name -> (type, array suffix).
     ``fixed``: uniforms set once from the declaration (ranges), name -> value.
     ``writes``: (quantity, part) of a pass's draw, or None.
+    ``epilogue``: lines after the shader's own (a pass's real main, see ``_writer``).
     """
 
     lines: list = field(default_factory=list)
@@ -77,6 +79,7 @@ class Interface:
     uniforms: dict = field(default_factory=dict)
     fixed: dict = field(default_factory=dict)
     writes: tuple = None
+    epilogue: list = field(default_factory=list)
 
     owners: dict = field(default_factory=dict)  # generated name -> what declared it
 
@@ -139,10 +142,18 @@ def _writer(out, quantity, fmt, part):
                   f"state_noise().{axes})")
     else:
         encode = f"state_clamp(v, u_{q}_lo, u_{q}_span)"
+    # GLSL ES 1.00 declares gl_FragColor mediump, and a driver may honour that where it is written
+    # inside a branch (llvmpipe rounds such a write to half floats: float state then kept 11
+    # bits). write_q keeps the texel in a highp variable, and the pass's real main, after the
+    # shader's own (renamed), writes gl_FragColor once, outside any branch.
+    out.declare("vec4 state_written;", "state_written", "the texel the pass writes")
     out.lines += [f"void write_{q}({GLSL_TYPES[c]} value)", "{", f"    vec4 v = {padded};",
-                  f"    gl_FragColor = {encode};", "}",
+                  f"    state_written = {encode};", "}",
                   f"void write({GLSL_TYPES[c]} value)  // the same, for a shader shared by passes",
-                  "{", f"    write_{q}(value);", "}"]
+                  "{", f"    write_{q}(value);", "}",
+                  "#define main state_pass_main"]
+    out.epilogue = ["#undef main", "void main()", "{", "    state_pass_main();",
+                    "    gl_FragColor = state_written;", "}"]
     out.writes = (q, part)
 
 

@@ -49,12 +49,13 @@ class FullscreenCommand:
     def __init__(self, group, fragment, stage, defines=None, interface=None):
         self.ctx, self.stage, self.fragment = group.ctx, stage, fragment
         prelude = interface.lines if interface is not None else None
-        source = expand(fragment, defines, prelude)
+        epilogue = interface.epilogue if interface is not None else None
+        source = expand(fragment, defines, prelude, epilogue)
         self.declared, self.referenced = _names(source)
 
         def compile():
             return self.ctx.program("lib/fullscreen.vert", fragment, defines,
-                                    fragment_prelude=prelude)
+                                    fragment_prelude=prelude, fragment_epilogue=epilogue)
 
         self.program = (compile_checked(compile, source, interface, self.where())
                         if interface is not None else compile())

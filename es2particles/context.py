@@ -283,14 +283,17 @@ class Context:
     def buffer(self, data):
         return self.own(self.mgl.buffer(data))
 
-    def program(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None):
-        """Compiled program for the shader files, defines and generated preludes (see
-        ``bindings.py``); compiled once, then cached."""
+    def program(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None,
+                fragment_epilogue=None):
+        """Compiled program for the shader files, defines and generated preludes and epilogue
+        (see ``bindings.py``); compiled once, then cached."""
         key = (str(vertex), str(fragment), tuple(sorted((defines or {}).items())),
-               tuple(vertex_prelude or ()), tuple(fragment_prelude or ()))
+               tuple(vertex_prelude or ()), tuple(fragment_prelude or ()),
+               tuple(fragment_epilogue or ()))
         if key not in self._programs:
             self._programs[key] = self.own(compile_program(self.mgl, vertex, fragment, defines,
-                                                           vertex_prelude, fragment_prelude))
+                                                           vertex_prelude, fragment_prelude,
+                                                           fragment_epilogue))
         return self._programs[key]
 
     @contextmanager

@@ -80,10 +80,11 @@ class ExpandedSource:
         return None
 
 
-def expand(name, defines=None, prelude=None):
+def expand(name, defines=None, prelude=None, epilogue=None):
     """Expand shader ``name`` with its includes and ``defines`` (a dict; a None value defines a bare
-    flag), and the ``prelude`` lines (the interface ``bindings.py`` writes; they may include
-    library files) between the defines and the file. Returns an :class:`ExpandedSource`."""
+    flag), the ``prelude`` lines (the interface ``bindings.py`` writes; they may include
+    library files) between the defines and the file, and the ``epilogue`` lines after the file.
+    Returns an :class:`ExpandedSource`."""
     path = find_shader(name)
     lines = _read(path).splitlines()
     first = next((i for i, line in enumerate(lines) if line.strip()), None)
@@ -100,6 +101,8 @@ def expand(name, defines=None, prelude=None):
     if prelude:
         _paste(GENERATED, list(prelude), 0, out, seen, depth=0)
     _paste(path, lines, first + 1, out, seen, depth=0)
+    if epilogue:
+        _paste(GENERATED, list(epilogue), 0, out, seen, depth=0)
     return ExpandedSource("\n".join(t for t, _ in out) + "\n", tuple(o for _, o in out))
 
 
@@ -176,7 +179,7 @@ def _source_line(file, line):
 
 
 def compile_program(mgl, vertex, fragment, defines=None, vertex_prelude=None,
-                    fragment_prelude=None):
+                    fragment_prelude=None, fragment_epilogue=None):
     """Compile and link a moderngl program from library or user shader files, each with its
     generated prelude (see :func:`expand`).
 
@@ -185,7 +188,7 @@ def compile_program(mgl, vertex, fragment, defines=None, vertex_prelude=None,
     import moderngl
 
     vs = expand(vertex, defines, vertex_prelude)
-    fs = expand(fragment, defines, fragment_prelude)
+    fs = expand(fragment, defines, fragment_prelude, fragment_epilogue)
     try:
         return mgl.program(vertex_shader=vs.text, fragment_shader=fs.text)
     except moderngl.Error as error:

@@ -336,8 +336,8 @@ def test_air_pass_is_valid_glsl_es_100(tmp_path):
     for fmt in ("rgba8", "rgba16f", "rgba32f"):
         for part in range(g.quantities["air"].parts(fmt)):
             for defines in ({}, {"STATE_DITHER": None}):
-                text = expand(spec.frag, defines, pass_interface(spec, g.quantities, fmt,
-                                                                 part).lines).text
+                interface = pass_interface(spec, g.quantities, fmt, part)
+                text = expand(spec.frag, defines, interface.lines, interface.epilogue).text
                 target = tmp_path / "air.frag"
                 target.write_text(text)
                 result = subprocess.run([tool, str(target)], capture_output=True, text=True)

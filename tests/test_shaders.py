@@ -82,9 +82,9 @@ def programs():
             defines = {"STATE_DITHER": None} if rounding == "dither" else {}
             for name, graph in graphs.items():
                 for spec, part, _ in graph.plan().draws(fmt):
-                    prelude = pass_interface(spec, graph.quantities, fmt, part).lines
+                    interface = pass_interface(spec, graph.quantities, fmt, part)
                     out.append((f"{name}-{spec.name}-{part}-{fmt}-{rounding}", spec.frag,
-                                {**defines, **spec.defines}, prelude))
+                                {**defines, **spec.defines}, (interface.lines, interface.epilogue)))
         quantities = graphs["collision"].quantities
         for reads in (("position",), ("position", "life")):
             prelude = stage_interface(reads, quantities, fmt,
@@ -114,7 +114,9 @@ PROGRAMS = programs()
 
 @pytest.mark.parametrize("name, frag, defines, prelude", PROGRAMS, ids=[p[0] for p in PROGRAMS])
 def test_every_generated_program_is_valid_glsl_es_100(name, frag, defines, prelude, tmp_path):
-    validate(glslang(), expand(frag, defines, prelude).text, Path(frag).suffix, tmp_path, name)
+    lines, epilogue = prelude if isinstance(prelude, tuple) else (prelude, None)
+    validate(glslang(), expand(frag, defines, lines, epilogue).text, Path(frag).suffix, tmp_path,
+             name)
 
 
 def test_includes_paste_each_file_once_and_keep_origins():

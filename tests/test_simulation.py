@@ -175,3 +175,18 @@ def test_clamped_counts_values_on_edges_that_are_not_exact_in_float32(gl, fmt):
     with Simulation(gl, g, 4, fmt=fmt) as sim:
         sim.upload("position", np.array([[-5.0, 5.0], [0.4, 0.2], [9.0, -9.0], [0.2, 0.1]]))
         assert sim.clamped("position") == [2, 2]
+
+
+def test_a_float_write_inside_a_branch_keeps_float32(gl):
+    """GLSL ES 1.00's gl_FragColor is mediump, and llvmpipe rounded a write made inside a branch
+    to half floats (1 + k / 16384 came back as 1 or 1 + 1/1024): the generated main writes it
+    once, after the shader's own, so the values come back exact."""
+    g = PassGraph()
+    g.quantity("q", 0.0, 4.0, components=1)
+    g.add("q", shader("write_in_branch.frag"), writes="q")
+    with Simulation(gl, g, 64, fmt="rgba32f") as sim:  # 8x8 texels
+        sim.step()
+        q = sim.download("q")[:, 0].reshape(8, 8)
+    column = np.arange(8)
+    want = 1 + column / 16384 + np.where((np.arange(8)[:, None] + 0.5) / 8 > 0.5, 0, 0.5)
+    assert np.array_equal(q, want), np.abs(q - want).max()

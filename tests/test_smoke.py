@@ -2,6 +2,8 @@
 float64 twin (inertial and tracers, stiff and loose), the opacity shadow map against a numpy
 splat, shading through it, why "over" needs back to front, and the scene end to end."""
 
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 
@@ -197,10 +199,10 @@ def test_an_acceleration_beyond_half_floats_is_refused(gl):
 SETTINGS = OpacityShadow(light=(0.0, 8.0, 0.0), centre=(0.0, 2.0, 0.0), radius=3.0, size=64)
 
 
-def shadow_map(gl, settings, points, opacity=1.0, fmt="rgba32f"):
-    """The GPU map of one-pixel sprites (a white 1x1 sprite: each adds exactly its opacity)."""
-    from dataclasses import replace
-
+@contextmanager
+def still(gl, points):
+    """A simulation of particles that stay at ``points``, alive: (simulation, its position and
+    life quantities), what a renderer reads."""
     g = PassGraph()
     g.quantity("position", -5.0, 9.0, components=3)
     g.quantity("life", (-10.0, 0.0), (10.0, 2000.0))
@@ -209,7 +211,14 @@ def shadow_map(gl, settings, points, opacity=1.0, fmt="rgba32f"):
     with Simulation(gl, g, len(points), fmt="rgba32f") as sim:
         sim.upload("position", points)
         sim.upload("life", np.tile(ALIVE, (len(points), 1)))
-        quantities = {q: sim.plan.quantities[q] for q in ("position", "life")}
+        yield sim, {q: sim.plan.quantities[q] for q in ("position", "life")}
+
+
+def shadow_map(gl, settings, points, opacity=1.0, fmt="rgba32f"):
+    """The GPU map of one-pixel sprites (a white 1x1 sprite: each adds exactly its opacity)."""
+    from dataclasses import replace
+
+    with still(gl, points) as (sim, quantities):
         white = gl.texture((1, 1), "rgba8", data=bytes([255] * 4))
         shadow = ShadowMap(gl, replace(settings, format=fmt), quantities, sim.layout, sim.fmt,
                            white, opacity, 0.0, gl.caps.point_size_range)
@@ -256,15 +265,7 @@ def test_rgba8_shadow_map_rounds_each_addition_and_saturates(gl):
 def sprites(gl, points, shadow, sort, opacity=1.0, size=(256, 256)):
     """The image (h, w, 3) and light map of white smoke sprites at ``points`` over black, drawn in
     the points' order or sorted, with the shadow map ``shadow`` (or none)."""
-    g = PassGraph()
-    g.quantity("position", -5.0, 9.0, components=3)
-    g.quantity("life", (-10.0, 0.0), (10.0, 2000.0))
-    g.add("position", _keep("position"), writes="position", reads="position")
-    g.add("life", _keep("life"), writes="life", reads="life")
-    with Simulation(gl, g, len(points), fmt="rgba32f") as sim:
-        sim.upload("position", points)
-        sim.upload("life", np.tile(ALIVE, (len(points), 1)))
-        quantities = {q: sim.plan.quantities[q] for q in ("position", "life")}
+    with still(gl, points) as (sim, quantities):
         renderer = SpriteRenderer(gl, quantities, sim.layout, size, sim.fmt, [], sprite="smoke",
                                   point_size=40.0, size_spread=0.0, attenuation=(0, 0, 1 / 36),
                                   blend="over", tint=(1, 1, 1, 1), opacity=opacity,

@@ -206,6 +206,10 @@ def _add_common_arguments(parser, running):
     add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
     add("--steps", type=int, default=None,
         help="simulation steps before the (first) frame (default: the scene's)")
+    add("--accumulate", type=int, default=1,
+        help="samples summed into each image of a density scene: this step's density and the "
+             "next K-1 steps' (reseeded attractors shift their grid for each); smoother, "
+             "1 / sqrt(K) the noise (default 1)")
     if running:
         add("--out", required=True,
             help="output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video extra)")
@@ -227,7 +231,7 @@ def _pipeline(ctx, args):
     gradient = None if args.gradient == "none" else args.gradient
     return scene, Pipeline(ctx, scene, args.particles, args.size, args.format, args.point_size,
                            args.intensity, args.exposure, gradient, bloom, args.seed,
-                           args.rounding, args.steps)
+                           args.rounding, args.steps, args.accumulate)
 
 
 def _plan(args):

@@ -177,13 +177,15 @@ class PointRenderer:
         order = np.argsort(key, kind="stable")  # radix sort on 16-bit keys: ~8 ms at 2^20
         self.stage.texels.write(self.layout.texel_uv()[order].tobytes())
 
-    def draw(self, buffers):
-        """Clear the target and draw every particle; ``buffers`` maps each read quantity to its
-        StateBuffer."""
+    def draw(self, buffers, clear=True):
+        """Draw every particle into the density target, cleared first unless ``clear`` is False
+        (accumulation: the densities of several steps add up); ``buffers`` maps each read
+        quantity to its StateBuffer."""
         self.ctx.make_current()
         self.stage.bind(buffers)
         with self.ctx.scope(self.framebuffer, blend="add", point_size=True):
-            self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
+            if clear:
+                self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
             count, step = self.layout.count, self.draw_slice
             for first in range(0, count, step):
                 self.stage.vao.render(moderngl.POINTS, vertices=min(step, count - first), first=first)

@@ -87,10 +87,19 @@ class Attractor(Scene):
         defines = {"ITERATIONS": self.iterations}
         if self.reseed:
             defines["RESEED"] = None
+        uniforms = {"u_coefficients": self.coefficients}
+        if self.reseed:
+            uniforms["u_jitter"] = (0.0, 0.0)
         g.add(self.name, self.shader, writes="position",
-              reads=() if self.reseed else ("position",),
-              uniforms={"u_coefficients": self.coefficients}, defines=defines)
+              reads=() if self.reseed else ("position",), uniforms=uniforms, defines=defines)
         return g
+
+    def sample_uniforms(self, sample, samples):
+        """Reseeded runs shift the grid by a sub-texel offset for each accumulated sample (the
+        R2 low-discrepancy sequence, sample 0 unshifted); stateful ones sample by stepping."""
+        if not self.reseed:
+            return {}
+        return {"u_jitter": tuple(float(v) for v in jitter(sample))}
 
     def start(self, count, rng):
         x0, y0, x1, y1 = self.range
@@ -119,6 +128,15 @@ class Attractor(Scene):
                 "quantity (position), one pass"
                 + ("; reseeded: nothing reads last step's position, so one texture" if self.reseed
                    else "")]
+
+
+R2 = 1 / np.array([1.32471795724474602596, 1.32471795724474602596 ** 2])  # 1/phi_2, 1/phi_2^2
+
+
+def jitter(sample):
+    """The grid offset (texels, in [-0.5, 0.5)^2) of accumulated sample ``sample``: the R2
+    sequence (Roberts 2018), which spreads any number of samples evenly; sample 0 is (0, 0)."""
+    return (0.5 + sample * R2) % 1.0 - 0.5
 
 
 def _coefficients(label, values):

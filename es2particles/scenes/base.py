@@ -69,6 +69,11 @@ class Scene:
         """Uniforms to set before frame ``frame`` of ``frames`` (animation): name -> value."""
         return {}
 
+    def sample_uniforms(self, sample, samples):
+        """Uniforms for accumulated sample ``sample`` of ``samples`` (one image summing the
+        densities of several steps): name -> value; sample 0 must give the plain image."""
+        return {}
+
     def background(self):
         """An (h, w, 4) uint8 image drawn under the particles, or None."""
         return None

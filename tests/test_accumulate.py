@@ -1,0 +1,95 @@
+"""Accumulation: one image from the densities of several steps (stateful) or of several jittered
+grids (reseeded), against numpy binning of the float64 twin's or the decoded positions."""
+
+import numpy as np
+import pytest
+
+from es2particles import ParameterError
+from es2particles.pipeline import Pipeline
+from es2particles.scenes import DeJong, Smoke
+from es2particles.scenes.attractor import jitter
+from test_render import binned
+
+SIZE = (96, 64)
+VIEW = DeJong().view  # the range [-2, 2]^2 and a margin
+
+
+def density(pipeline):
+    """The density target after a render, (h * w,) float64 counts (intensity 1)."""
+    renderer = pipeline.renderer
+    assert renderer.format == "r32f"
+    return np.frombuffer(renderer.density.read(), np.float32).astype(np.float64)
+
+
+def test_stateful_accumulation_sums_the_next_steps_densities(gl):
+    samples = 4
+    with Pipeline(gl, DeJong(), 4096, SIZE, accumulate=samples, steps=5) as acc, \
+            Pipeline(gl, DeJong(), 4096, SIZE, steps=5) as plain:
+        acc.warm_up()
+        plain.warm_up()
+        acc.render()
+        got = density(acc)
+        want, ambiguous = np.zeros(SIZE[0] * SIZE[1]), 0
+        for sample in range(samples):
+            if sample:
+                plain.step(1)
+            d, a = binned(plain.state()["position"], SIZE, VIEW)
+            want, ambiguous = want + d, ambiguous + a
+        assert acc.sim.steps_done == plain.sim.steps_done == 5 + samples - 1
+    assert got.sum() == pytest.approx(samples * 4096, abs=ambiguous)
+    moved = np.abs(got - want).sum() / 2
+    assert moved <= ambiguous, f"{moved} points in another pixel, {ambiguous} near an edge"
+
+
+def test_reseeded_accumulation_samples_jittered_grids(gl):
+    """Sample k starts from the texel grid shifted by jitter(k) texels; the twin iterates the
+    same grids in float64. The map is chaotic, so a few points part from the twin by a pixel."""
+    samples = 5
+    scene = DeJong(reseed=True)
+    with Pipeline(gl, scene, 4096, SIZE, accumulate=samples) as p:
+        p.warm_up()
+        p.render()
+        got = density(p)
+        layout = p.sim.layout
+        # the next frame starts unshifted: the last position is sample 0's again
+        p.step(1)
+        first = p.state()["position"]
+    uv = layout.texel_uv().astype(np.float64)
+    want, ambiguous = np.zeros(SIZE[0] * SIZE[1]), 0
+    for sample in range(samples):
+        grid = -2 + (uv + jitter(sample) / (layout.width, layout.height)) * 4
+        d, a = binned(scene.iterate(grid), SIZE, VIEW)
+        want, ambiguous = want + d, ambiguous + a
+        if sample == 0:
+            assert np.abs(scene.iterate(grid) - first).max() < 1e-3
+    moved = np.abs(got - want).sum() / 2
+    print(f"{moved:.0f} points in another pixel than the twin's, {ambiguous} near an edge")
+    assert moved <= ambiguous + 0.002 * samples * 4096, (moved, ambiguous)
+
+
+def test_jitter_is_the_r2_sequence_from_zero():
+    offsets = np.array([jitter(k) for k in range(1000)])
+    assert np.array_equal(offsets[0], [0.0, 0.0])
+    assert offsets.min() >= -0.5 and offsets.max() < 0.5
+    # low discrepancy: every cell of a 10x10 grid of the texel gets 10 +- 3 of 1000 samples
+    cells = np.histogram2d(offsets[:, 0], offsets[:, 1], bins=10, range=[[-0.5, 0.5]] * 2)[0]
+    assert cells.min() >= 7 and cells.max() <= 13, cells
+
+
+def test_one_sample_is_the_plain_image(gl):
+    with Pipeline(gl, DeJong(reseed=True), 4096, SIZE, accumulate=1) as a, \
+            Pipeline(gl, DeJong(reseed=True), 4096, SIZE) as b:
+        a.warm_up()
+        b.warm_up()
+        assert np.array_equal(a.image(), b.image())
+
+
+def test_bad_accumulation_is_one_line(gl, capsys):
+    from es2particles.cli import main
+
+    for value in ("0", "-3"):
+        code = main(["run", "dejong", "--accumulate", value, "--out", "x.png"])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and "accumulate" in err, err
+    with pytest.raises(ParameterError, match="accumulate applies to density scenes"):
+        Pipeline(gl, Smoke(), 64, (16, 16), accumulate=2)

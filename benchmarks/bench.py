@@ -207,7 +207,6 @@ def smoke_section(ctx, sizes, repeats, emit):
     the order), the opacity shadow map pass, and the whole frame (step, sort, shadow map, meshes
     and sprites) with each part switched off in turn."""
     from es2particles.scenes.smoke import Smoke
-    from es2particles.sort import forward
 
     emit("| N | stage | ours ms (min-max) | CPU route ms | CPU/ours |")
     emit("|---|---|---|---|---|")
@@ -228,7 +227,7 @@ def smoke_section(ctx, sizes, repeats, emit):
             order_texture = ctx.texture((network.width, network.height), network.fmt)
 
             def cpu_sort():  # the order a CPU would make: read back, sort, upload
-                depth = (p.sim.download("position") - camera.eye) @ forward(camera)
+                depth = (p.sim.download("position") - camera.eye) @ camera.forward
                 order = np.argsort(-depth, kind="stable")
                 slots = np.arange(network.slots)
                 slots[:count] = order
@@ -259,7 +258,7 @@ def smoke_sortedness(ctx, log2n, emit, frames=45):
     """How sorted the drawn order stays when the merge passes are spread over frames (Latta
     2004): the smoke moving under its orbiting camera, after ``frames`` frames of one step."""
     from es2particles.scenes.smoke import Smoke
-    from es2particles.sort import forward, sortedness
+    from es2particles.sort import sortedness
 
     emit()
     emit(f"Order of the smoke at 2^{log2n} after {frames} frames of one step, the camera orbiting "
@@ -276,7 +275,7 @@ def smoke_sortedness(ctx, log2n, emit, frames=45):
                 p.step(1)
                 p.render(frame, 4 * frames)
             camera = scene.camera_at(frames - 1, 4 * frames)
-            depth = (p.sim.download("position") - camera.eye) @ forward(camera)
+            depth = (p.sim.download("position") - camera.eye) @ camera.forward
             sorter = p.renderer.sorter
             order = sorter.order() if sorter is not None else np.arange(2 ** log2n)
             passes = "-" if sorter is None else (sorter.network.passes if sort == "full" else sort)

@@ -55,10 +55,15 @@ class Camera:
         if abs(np.dot(forward, _unit(self.up, "up"))) > 1 - 1e-9:
             raise ParameterError("camera: up must not be parallel to the viewing direction")
 
+    @property
+    def forward(self):
+        """The unit viewing direction, target - eye normalised."""
+        return _unit(np.subtract(self.target, self.eye), "target - eye")
+
     def view(self):
         """World to eye space, 4x4 (row-major numpy)."""
         eye = np.asarray(self.eye)
-        f = _unit(np.subtract(self.target, eye), "target - eye")
+        f = self.forward
         s = _unit(np.cross(f, self.up), "side")
         u = np.cross(s, f)
         m = np.eye(4)

@@ -108,6 +108,15 @@ class FullscreenCommand:
         for name, value in uniforms.items():
             self.set(name, value)
 
+    def set_generated(self, interface, layout):
+        """Set what the generated interface declares for a state ``layout``: the quantities'
+        ranges, ``u_state_size`` and ``u_count`` (each where the driver kept it)."""
+        for name, value in {**interface.fixed,
+                            "u_state_size": (float(layout.width), float(layout.height)),
+                            "u_count": float(layout.count)}.items():
+            if self.has(name):
+                self.state.set(name, value)
+
     def check_fed(self, samplers):
         """Raise unless ``samplers`` (names) covers every sampler the program uses."""
         unfed = [name for name in self.samplers if name not in samplers]

@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from .camera import Camera
+from .context import bytes_per_texel, numpy_dtype
 from .errors import CapabilityError, ParameterError, check_range
 from .graph import format_bytes
 
@@ -74,8 +75,7 @@ class OpacityShadow:
 
     def axis(self):
         """(unit viewing direction, depth of the slab's front): the layers' frame."""
-        forward = np.subtract(self.centre, self.light) / self.distance
-        return forward, self.distance - self.radius
+        return self.camera().forward, self.distance - self.radius
 
     def layer_depth(self):
         return 2 * self.radius / LAYERS
@@ -95,11 +95,11 @@ def choose_format(ctx, fmt):
                      f"{RGBA8_UNIT:g}, saturating at {1 / RGBA8_UNIT:g})")
 
 
-def light_through(opacity_before, settings, unit=1.0):
-    """numpy twin of ``shadow_light``: the light reaching a particle with ``opacity_before``
-    (map units) in front of it."""
+def light_through(opacity_before, settings):
+    """numpy twin of ``shadow_light``: the light reaching a particle with ``opacity_before`` in
+    front of it."""
     s = settings
-    return s.ambient + (1 - s.ambient) * np.exp(-s.extinction * np.asarray(opacity_before) / unit)
+    return s.ambient + (1 - s.ambient) * np.exp(-s.extinction * np.asarray(opacity_before))
 
 
 def opacity_map(points, opacity, settings):
@@ -196,8 +196,6 @@ class ShadowMap:
 
     def read(self):
         """The map as (size, size, 4) float64 opacities (row 0 at the bottom), in opacity units."""
-        from .context import numpy_dtype
-
         data = np.frombuffer(self.map.read(), dtype=numpy_dtype(self.format))
         data = data.reshape(self.settings.size, self.settings.size, 4).astype(np.float64)
         if self.format == "rgba8":
@@ -208,14 +206,11 @@ class ShadowMap:
         s = self.settings
         return (f"opacity shadow map: {LAYERS} layers of {s.layer_depth():.3g} m from the light "
                 f"at {tuple(round(v, 3) for v in s.light)} in one {self.format_note} target "
-                f"{s.size}x{s.size} ({format_bytes(s.size * s.size * _bytes(self.format))}), one "
-                f"additive pass of the particles")
+                f"{s.size}x{s.size} "
+                f"({format_bytes(s.size * s.size * bytes_per_texel(self.format))}), one additive "
+                f"pass of the particles")
 
     def release(self):
         self.group.release()
 
 
-def _bytes(fmt):
-    from .context import bytes_per_texel
-
-    return bytes_per_texel(fmt)

@@ -59,13 +59,7 @@ class _Draw:
                 raise ParameterError(f"{cmd.where()} declares it reads {kind} {what!r} but its "
                                      f"shader never uses {call}")
         cmd.check_fed(self.interface.samplers)
-        for name, value in self.interface.fixed.items():
-            if cmd.has(name):
-                cmd.state.set(name, value)
-        for name, value in (("u_state_size", (float(layout.width), float(layout.height))),
-                            ("u_count", float(layout.count))):
-            if cmd.has(name):
-                cmd.state.set(name, value)
+        cmd.set_generated(self.interface, layout)
         for name, value in spec.uniforms.items():
             self.set_uniform(name, value)
         self.step_uniform = cmd.program["u_step"] if cmd.has("u_step") else None

@@ -39,6 +39,7 @@ import numpy as np
 from .bindings import stage_interface
 from .command import FullscreenCommand
 from .errors import CapabilityError, ParameterError, check_range
+from .state import Layout
 
 FORMATS = ("rgba8", "rgba32f")
 MAX_COUNT = 2 ** 24  # every slot number and index must be an integer float32 holds exactly
@@ -275,12 +276,10 @@ class SortingNetwork:
         return order_defines(self.fmt, self.count)
 
     def slot_uv(self):
-        """Texel centres (count, 2) float32 of the first ``count`` slots, in slot order: the
-        vertex buffer of a draw in sorted order (vertex i decodes slot i)."""
-        slot = np.arange(self.count)
-        uv = np.stack([(slot % self.width + 0.5) / self.width,
-                       (slot // self.width + 0.5) / self.height], axis=1)
-        return uv.astype(np.float32)
+        """Texel centres (count, 2) float32 of the first ``count`` slots, in slot order (row by
+        row, as a state Layout numbers particles): the vertex buffer of a draw in sorted order
+        (vertex i decodes slot i)."""
+        return Layout(self.count, self.width, self.height).texel_uv()
 
     def describe_keys(self):
         return f"{self.fmt}: " + (f"{self.key_bits} key bits" if self.fmt == "rgba8"
@@ -446,12 +445,7 @@ class DepthSorter:
             self.group = ctx.group()
             self.command = FullscreenCommand(self.group, "sort/key.frag", "depth sort key pass",
                                              self.network.defines(), self.interface)
-            state = self.command.state
-            for name, value in {**self.interface.fixed, "u_count": float(state_layout.count),
-                                "u_state_size": (float(state_layout.width),
-                                                 float(state_layout.height))}.items():
-                if self.command.has(name):
-                    state.set(name, value)
+            self.command.set_generated(self.interface, state_layout)
         except Exception:
             self.release()
             raise
@@ -473,7 +467,7 @@ class DepthSorter:
         lo, hi = np.array(self.quantity.lo), np.array(self.quantity.hi)
         corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)]
                             for c in range(8)])
-        depth = (corners - np.array(camera.eye)) @ forward(camera)
+        depth = (corners - np.array(camera.eye)) @ camera.forward
         return float(depth.min()), float(depth.max())
 
     def update(self, buffers, camera):
@@ -483,7 +477,7 @@ class DepthSorter:
         self.ctx.make_current()
         near, far = self.depth_range(camera)
         command.set("u_eye", tuple(float(v) for v in camera.eye))
-        command.set("u_forward", tuple(float(v) for v in forward(camera)))
+        command.set("u_forward", tuple(float(v) for v in camera.forward))
         command.set("u_depth", (far, 1.0 / max(far - near, 1e-30)))
         fronts = buffers[self.quantity.name].fronts
         textures = {name: fronts[part] for name, part in self.samplers.items()}
@@ -514,8 +508,3 @@ class DepthSorter:
         if self.network is not None:
             self.network.release()
 
-
-def forward(camera):
-    """The camera's unit viewing direction (target - eye, normalised)."""
-    f = np.subtract(camera.target, camera.eye).astype(np.float64)
-    return f / np.linalg.norm(f)

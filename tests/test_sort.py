@@ -17,7 +17,7 @@ from es2particles.camera import Camera, orbit
 from es2particles.errors import ParameterError
 from es2particles.bindings import stage_interface
 from es2particles.shaders import expand
-from es2particles.sort import (DepthSorter, SortingNetwork, comparators, forward, network_pass,
+from es2particles.sort import (DepthSorter, SortingNetwork, comparators, network_pass,
                                network_sort, order_defines, schedule, sortedness)
 from es2particles.state import Layout, Quantity, StateBuffer
 
@@ -204,7 +204,7 @@ def make_state(gl, group, name, count, state_format, rng):
 
 def view_depth(buffer, camera):
     """float64 view depths of the positions the state holds (decoded as the shader decodes)."""
-    return (buffer.download() - np.array(camera.eye)) @ forward(camera)
+    return (buffer.download() - np.array(camera.eye)) @ camera.forward
 
 
 @pytest.mark.parametrize("state_format, fmt, name", [("rgba8", "rgba8", "position"),

@@ -14,6 +14,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..errors import ParameterError
+
+
+def parse_numbers(option, text, counts):
+    """The numbers of a comma-separated command-line value, as a tuple whose length is one of
+    ``counts``; else one line naming ``--option``."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) not in counts:
+        raise ParameterError(f"--{option} must be {' or '.join(map(str, counts))} numbers "
+                             f"separated by commas, got {text!r}")
+    return values
+
 
 @dataclass(frozen=True)
 class Defaults:

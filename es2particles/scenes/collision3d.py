@@ -20,7 +20,7 @@ from ..errors import ParameterError, check_range
 from ..field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
 from ..graph import PassGraph
 from ..twins.life import life_range, longest_life, staggered_births
-from .base import Defaults, Scene
+from .base import Defaults, Scene, parse_numbers
 
 FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
 HEIGHT = 7.0  # y in [-1, 7]: 8 units, the floor y = 0 a code of the 16-bit grid (see fountain.py)
@@ -232,16 +232,7 @@ class Collision3D(Scene):
 
     @classmethod
     def from_args(cls, args):
-        def numbers(name, text, counts):
-            try:
-                values = tuple(float(v) for v in text.split(","))
-            except ValueError:
-                values = ()
-            if len(values) not in counts:
-                raise ParameterError(f"--{name} must be {' or '.join(map(str, counts))} numbers "
-                                     f"separated by commas, got {text!r}")
-            return values
-
+        numbers = parse_numbers
         spin = numbers("spin", args.spin, (1, 4))
         physics = Physics3D(
             dt=args.dt, gravity=args.gravity, force=numbers("force", args.force, (3,)),

@@ -18,7 +18,7 @@ from ..errors import ParameterError, check_range
 from ..graph import PassGraph
 from ..shadow import OpacityShadow
 from ..twins.life import life_range, longest_life, staggered_births
-from .base import Defaults, Scene
+from .base import Defaults, Scene, parse_numbers
 
 HALF = 4.0  # x and z of the position range: [-4, 4]
 LOW, HIGH = -0.5, 7.5  # its y range: 8 m
@@ -116,17 +116,6 @@ class SmokePhysics:
                 "u_emission": f(self.emission), "u_lifetime": f(self.lifetime)}
 
 
-def _numbers(name, text, count):
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != count:
-        raise ParameterError(f"--{name} must be {count} numbers separated by commas, got "
-                             f"{text!r}")
-    return values
-
-
 class Smoke(Scene):
     """Smoke curling around a moving sphere, sorted and self-shadowed."""
 
@@ -203,12 +192,14 @@ class Smoke(Scene):
 
     @classmethod
     def from_args(cls, args):
+        def numbers(option, count):
+            return parse_numbers(option, getattr(args, option), (count,))
+
         physics = SmokePhysics(
-            dt=args.dt, tau=args.tau, gravity=_numbers("gravity", args.gravity, 3),
-            wind=_numbers("wind", args.wind, 3), noise=_numbers("noise", args.noise, 4),
-            sphere=_numbers("sphere", args.sphere, 4), sway=_numbers("sway", args.sway, 4),
-            emitter=_numbers("emitter", args.emitter, 4),
-            emission=_numbers("emission", args.emission, 2), lifetime=tuple(args.lifetime))
+            dt=args.dt, tau=args.tau, gravity=numbers("gravity", 3), wind=numbers("wind", 3),
+            noise=numbers("noise", 4), sphere=numbers("sphere", 4), sway=numbers("sway", 4),
+            emitter=numbers("emitter", 4), emission=numbers("emission", 2),
+            lifetime=tuple(args.lifetime))
         sort = args.sort
         if sort not in SORTS:
             try:
@@ -216,8 +207,8 @@ class Smoke(Scene):
             except ValueError:
                 raise ParameterError(f"--sort must be full, off or a whole number of passes per "
                                      f"frame, got {args.sort!r}") from None
-        return cls(physics, _numbers("colour", args.colour, 3), _numbers("light", args.light, 3),
-                   args.shadows == "on", sort, args.camera, args.opacity)
+        return cls(physics, numbers("colour", 3), numbers("light", 3), args.shadows == "on", sort,
+                   args.camera, args.opacity)
 
     def graph(self):
         p = self.physics

@@ -1,7 +1,9 @@
 """Time a frame of each scene by stage, against numpy and datashader on the same job.
 
 Run: ``python benchmarks/bench.py`` (after ``pip install .``; ``pip install ".[bench]"`` adds
-datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes dejong,collision``,
+datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes
+dejong,collision,command`` (``command``: the whole ``es2particles run`` of the article's picture,
+start-up included, against the numpy + pillow script, alternately, and where its seconds go),
 ``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak); ``--scenes fountain``
 adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pixels, both
 blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
@@ -144,23 +146,65 @@ def host_memory_growth(ctx, frames=500):
     return marks
 
 
-def startup():
-    """Seconds for: importing the package; making the context; a whole `run` command at 2^20,
-    against a numpy + pillow script making the same picture."""
-    env = dict(os.environ)
+ARTICLE_COMMAND = ["run", "dejong", "--reseed", "--particles", "1048576", "--size", "1024x1024",
+                   "--iterations", "3", "--steps", "1"]
+STARTUP_STAGES = ("imports", "parser", "context", "probe", "compiles", "set-up", "steps",
+                  "first frame", "readback", "PNG")
+
+
+def whole_command(emit, rounds):
+    """The article's picture as a user makes it, start-up included: the whole `es2particles run`
+    command against the numpy + pillow script making the same picture (numpy_dejong.py), run
+    alternately ``rounds`` times in separate processes; then where our seconds go, stage by stage
+    (startup.py walks the command's path in one process). Both sides' bytecode is compiled first,
+    as `pip install` leaves it (this machine sets PYTHONDONTWRITEBYTECODE)."""
+    import compileall
+    import json
+    import statistics
+
+    here = Path(__file__).resolve().parent
+    import es2particles
+    compileall.compile_dir(Path(es2particles.__file__).parent, quiet=1)
+    compileall.compile_dir(here, quiet=1)
+    ours, numpy_script, stages = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
         def wall(args):
             start = time.perf_counter()
-            subprocess.run(args, check=True, capture_output=True, env=env)
+            subprocess.run(args, check=True, capture_output=True)
             return time.perf_counter() - start
-        imports = min(wall([sys.executable, "-c", "import es2particles"]) for _ in range(3))
-        context = min(wall([sys.executable, "-c", "import es2particles as e; e.open_context()"])
-                      for _ in range(3))
-        command = min(wall([sys.executable, "-m", "es2particles.cli", "run", "dejong", "--out",
-                            f"{tmp}/a.png"]) for _ in range(3))
-        script = min(wall([sys.executable, str(Path(__file__).parent / "peers.py"),
-                           f"{tmp}/b.png"]) for _ in range(3))
-    return imports, context, command, script
+        command = [sys.executable, "-m", "es2particles.cli", *ARTICLE_COMMAND, "--out", f"{tmp}/a.png"]
+        script = [sys.executable, str(here / "numpy_dejong.py"), "--reseed", f"{tmp}/b.png"]
+        bare = min(wall([sys.executable, "-c", "pass"]) for _ in range(3))
+        wall(command), wall(script)  # warm the file cache and the shader cache
+        for _ in range(rounds):
+            ours.append(wall(command))
+            numpy_script.append(wall(script))
+        for _ in range(max(3, rounds // 2)):
+            out = subprocess.run([sys.executable, str(here / "startup.py"), *ARTICLE_COMMAND,
+                                  "--out", f"{tmp}/c.png"], check=True, capture_output=True,
+                                 text=True).stdout
+            stages.append(json.loads(out))
+    med = statistics.median
+    pairs = [n / o for n, o in zip(numpy_script, ours)]
+    emit(f"`es2particles {' '.join(ARTICLE_COMMAND)} --out x.png` against the numpy + pillow script "
+         f"making the same picture, alternately, {rounds} rounds (whole processes):")
+    emit()
+    emit("| | median s | min s | max s |")
+    emit("|---|---|---|---|")
+    for name, times in (("es2particles run", ours), ("numpy + pillow script", numpy_script)):
+        emit(f"| {name} | {med(times):.3f} | {min(times):.3f} | {max(times):.3f} |")
+    emit()
+    emit(f"Whole-command ratio (script / ours): median of the rounds' ratios {med(pairs):.2f} "
+         f"(range {min(pairs):.2f}-{max(pairs):.2f}); of the medians {med(numpy_script) / med(ours):.2f}")
+    emit()
+    emit(f"Where our seconds go (startup.py, median of {len(stages)} runs; the interpreter's own "
+         f"start and exit, `python -c pass`, is {bare * 1e3:.0f} ms):")
+    emit()
+    emit("| stage | ms |")
+    emit("|---|---|")
+    for stage in STARTUP_STAGES:
+        emit(f"| {stage} | {med(s[stage] for s in stages) * 1e3:.0f} |")
+    emit(f"| sum | {med(sum(s.values()) for s in stages) * 1e3:.0f} |")
 
 
 def fountain_section(ctx, sizes, repeats, emit):
@@ -397,7 +441,7 @@ def fmt_ms(t):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", default="16,18,20,22")
-    parser.add_argument("--scenes", default="dejong,collision")
+    parser.add_argument("--scenes", default="dejong,collision,command")
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
@@ -424,6 +468,9 @@ def main(argv=None):
                 continue
             if scene == "accumulate":
                 accumulation_section(ctx, emit, args.quick)
+                continue
+            if scene == "command":
+                whole_command(emit, 5 if args.quick else 11)
                 continue
             if scene == "smoke":
                 smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],
@@ -460,11 +507,6 @@ def main(argv=None):
             emit()
             emit(f"Host memory (de Jong 2^16 animation): frame 10 {marks[10] / 2**20:.1f} MiB, "
                  f"frame 500 {marks[500] / 2**20:.1f} MiB")
-    if not args.quick:
-        imports, context, command, script = startup()
-        emit(f"Start-up: import {imports * 1e3:.0f} ms, import + context {context * 1e3:.0f} ms; "
-             f"whole `es2particles run dejong` (2^20, 20 steps, PNG) {command:.2f} s against the "
-             f"numpy + pillow script {script:.2f} s (ratio {script / command:.2f})")
     out = Path("out/bench")
     out.mkdir(parents=True, exist_ok=True)
     (out / "bench.md").write_text("\n".join(out_lines) + "\n")

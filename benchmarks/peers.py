@@ -1,20 +1,21 @@
 """The peers the benchmark times on the same jobs: a numpy float32 pipeline for each scene, and
 datashader (with numba) for de Jong, which is what a Python user would pick for attractor images.
 
-``numpy_dejong_image`` is also run as a script (``python benchmarks/peers.py out.png``): the numpy +
-pillow way to make the article's picture, timed against the ``es2particles run`` command.
+The numpy peer lives in ``numpy_dejong.py``, which imports numpy and pillow alone: it is also the
+script timed against the whole ``es2particles run`` command.
 """
 
 import io
-import sys
 
 import numpy as np
 from PIL import Image
 
 from es2particles.ramps import load_ramp
-from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS, dejong_map
+from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS
+from numpy_dejong import INFERNO, SIZE, NumpyDeJong, NumpyFrame  # noqa: F401 (bench imports them)
 
-SIZE = (1024, 1024)
+# The peer script carries its own copy of the ramp's stops: it must match ours.
+assert np.array_equal(NumpyFrame().ramp, load_ramp("inferno")[:, :3]), "numpy_dejong.INFERNO"
 
 
 def png_bytes(image):
@@ -22,46 +23,6 @@ def png_bytes(image):
     buffer = io.BytesIO()
     Image.fromarray(image).save(buffer, format="PNG")
     return buffer.getvalue()
-
-
-class NumpyFrame:
-    """A frame in numpy float32: positions (N, 2) in [-2, 2]^2 -> bincount density -> log tone
-    curve -> inferno ramp -> half-resolution Gaussian bloom -> uint8 image."""
-
-    def __init__(self, size=SIZE, extent=2.0):
-        self.size, self.extent = size, extent
-        self.ramp = load_ramp("inferno")[:, :3]
-        kernel = np.exp(-0.5 * (np.arange(-12, 13) / 3.0) ** 2).astype(np.float32)
-        self.kernel = kernel / kernel.sum()
-
-    def density(self, p):
-        w, h = self.size
-        ij = ((p + self.extent) * np.float32(w / (2 * self.extent))).astype(np.int32).clip(0, w - 1)
-        self.counts = np.bincount(ij[:, 1] * w + ij[:, 0], minlength=w * h).reshape(h, w)
-        self.count = len(p)
-
-    def post(self):
-        mean = self.count / self.counts.size
-        t = np.log1p(np.float32(4) * self.counts / mean) / np.log1p(np.float32(4 * 256))
-        image = self.ramp[(np.clip(t, 0, 1) * 255).astype(np.uint8)].astype(np.float32) / 255
-        h, w = self.counts.shape
-        half = image.reshape(h // 2, 2, w // 2, 2, 3).mean(axis=(1, 3))
-        bright = half * (half.mean(axis=2, keepdims=True) > 0.6)
-        blur = np.apply_along_axis(np.convolve, 0, bright, self.kernel, "same")
-        blur = np.apply_along_axis(np.convolve, 1, blur, self.kernel, "same")
-        glow = blur.repeat(2, axis=0).repeat(2, axis=1)
-        self.image = (np.minimum(image + 0.8 * glow, 1) * 255).astype(np.uint8)[::-1]
-        return self.image
-
-
-class NumpyDeJong:
-    def __init__(self, count, seed=0):
-        self.p = np.random.default_rng(seed).uniform(-2, 2, (count, 2)).astype(np.float32)
-        self.k = tuple(np.float32(c) for c in ARTICLE_COEFFICIENTS)
-        self.frame = NumpyFrame()
-
-    def step(self):
-        self.p = dejong_map(self.p, self.k, 3).astype(np.float32)
 
 
 def datashader_dejong(count, seed=0):
@@ -104,16 +65,3 @@ def datashader_dejong(count, seed=0):
 
     step()  # compile
     return step, render, post, encode
-
-
-def numpy_dejong_image(path, count=2 ** 20, steps=20):
-    """The article's picture with numpy and pillow alone."""
-    job = NumpyDeJong(count)
-    for _ in range(steps):
-        job.step()
-    job.frame.density(job.p)
-    Image.fromarray(job.frame.post()).save(path)
-
-
-if __name__ == "__main__":
-    numpy_dejong_image(sys.argv[1])

@@ -1,7 +1,5 @@
 """``python -m es2particles``: the same command line as ``es2particles``."""
 
-import sys
+from .cli import console_main
 
-from .cli import main
-
-sys.exit(main())
+console_main()

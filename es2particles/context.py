@@ -13,7 +13,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import astc
 from .errors import CapabilityError, ContextError, ParameterError
 from .shaders import compile_program
 
@@ -107,9 +106,19 @@ class Capabilities:
     max_texture_size: int
     max_vertex_texture_units: int
     point_size_range: tuple
-    renderable: dict = field(default_factory=dict)  # format -> can be a render target
-    blendable: dict = field(default_factory=dict)  # format -> additive blending works into it
-    store_rule: str = "unknown"  # how the driver turns a float into a byte: round/truncate/...
+    # format -> can be a render target / additive blending works into it; probed per format the
+    # first time one is asked for (see FormatFlags), so a run probes only the formats it uses.
+    renderable: dict = field(default_factory=dict)
+    blendable: dict = field(default_factory=dict)
+    probe_store_rule: object = field(default=None, repr=False, compare=False)
+
+    @property
+    def store_rule(self):
+        """How the driver turns a float into a byte in an RGBA8 store (round-to-nearest,
+        truncate, floor256): probed the first time it is asked for, then kept."""
+        if not hasattr(self, "_store_rule"):
+            self._store_rule = self.probe_store_rule() if self.probe_store_rule else "unknown"
+        return self._store_rule
 
     @property
     def software_rasteriser(self):
@@ -138,6 +147,25 @@ class Capabilities:
 
 def _yes(flag):
     return "yes" if flag else "no"
+
+
+class FormatFlags(dict):
+    """format -> flag, filled on the first question about a format: ``probe(fmt)`` renders into
+    a 4x4 target of it (~5 ms a format on llvmpipe) and fills this and its sibling mapping. A name
+    that is not a texture format stays absent (``get`` gives None)."""
+
+    def __init__(self, probe):
+        super().__init__()
+        self._probe = probe
+
+    def __missing__(self, fmt):
+        if fmt not in TEXTURE_FORMATS:
+            raise KeyError(fmt)
+        self._probe(fmt)
+        return dict.__getitem__(self, fmt)
+
+    def get(self, fmt, default=None):
+        return self[fmt] if fmt in TEXTURE_FORMATS else default
 
 
 class Context:
@@ -252,6 +280,8 @@ class Context:
         texture of that size is made and its level 0 replaced by glCompressedTexImage2D.
         """
         import moderngl
+
+        from . import astc  # only compressed fields need it: not imported at start-up
 
         if not isinstance(compressed, astc.Compressed):
             raise ParameterError(f"compressed must be an astc.Compressed (see astc.compress), got "
@@ -406,15 +436,22 @@ def _probe(ctx):
         max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 0)),
         max_vertex_texture_units=int(info.get("GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS", 0)),
         point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
+        probe_store_rule=lambda: _probe_store_rule(ctx),
     )
-    for fmt in TEXTURE_FORMATS:
-        caps.renderable[fmt], caps.blendable[fmt] = _probe_format(ctx, fmt)
-    caps.store_rule = _probe_store_rule(ctx)
+
+    def probe(fmt):
+        renderable, blendable = _probe_format(ctx, fmt)
+        dict.__setitem__(caps.renderable, fmt, renderable)
+        dict.__setitem__(caps.blendable, fmt, blendable)
+
+    caps.renderable, caps.blendable = FormatFlags(probe), FormatFlags(probe)
     return caps
 
 
-def _draw_constant(ctx, fmt, colour, blend):
-    """Render a constant colour into a 4x4 target of ``fmt`` (twice, blended, if ``blend``)."""
+def _draw_constant(ctx, fmt, colour, blends=1):
+    """Render a constant colour into a 4x4 target of ``fmt``: once, then ``blends`` times more
+    with additive blending; the first texel after each draw, as float64 (r32f: only .r means
+    anything)."""
     from .command import FullscreenCommand
 
     group = ctx.group()
@@ -424,19 +461,22 @@ def _draw_constant(ctx, fmt, colour, blend):
         fbo.clear(0, 0, 0, 0)
         command = FullscreenCommand(group, "lib/constant.frag", "format probe")
         command.set("u_colour", tuple(colour))
-        for _ in range(2 if blend else 1):
-            command.draw(fbo, {}, blend="add" if blend else None)
         components = TEXTURE_FORMATS[fmt][0]
-        texel = np.frombuffer(tex.read(), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
-        return np.resize(texel.astype(np.float64), 4)  # r32f: only .r is meaningful
+        texels = []
+        for draw in range(1 + blends):
+            command.draw(fbo, {}, blend="add" if draw else None)
+            texel = np.frombuffer(tex.read(), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
+            texels.append(np.resize(texel.astype(np.float64), 4))
+        return texels
     finally:
         group.release()
 
 
 def _probe_format(ctx, fmt):
+    """(renderable, blendable): one draw of 0.25 must store 0.25 (64 in RGBA8), and one more
+    blended onto it must make 0.5 (128)."""
     try:
-        once = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0), blend=False)
-        twice = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0), blend=True)
+        once, twice = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0))
     except Exception:
         return False, False
     if ctx.mgl.error != "GL_NO_ERROR":
@@ -455,7 +495,7 @@ def _probe_store_rule(ctx):
     from .twins.pack import store_unorm8
 
     colour = np.array([10.6, 200.7, 100.3, 254.9], dtype=np.float32) / np.float32(255)
-    got = _draw_constant(ctx, "rgba8", colour, blend=False)
+    got = _draw_constant(ctx, "rgba8", colour, blends=0)[0]
     for rule in ("round", "truncate", "floor256"):
         if np.array_equal(store_unorm8(colour, rule), got):
             return "round-to-nearest" if rule == "round" else rule

@@ -22,12 +22,12 @@ BUILTIN = {
 def load_ramp(spec):
     """The (256, 4) uint8 ramp for ``spec``: a built-in name, ``#rrggbb,#rrggbb,...`` (or any
     colour names pillow knows), or the path of an image whose first row is the ramp."""
-    from PIL import Image, ImageColor
-
     if not isinstance(spec, str) or not spec:
         raise ParameterError(f"gradient must be a name, a list of colours or a PNG path, got {spec!r}")
-    if spec in BUILTIN:
-        return _interpolate([ImageColor.getrgb(c) for c in BUILTIN[spec]])
+    if spec in BUILTIN:  # #rrggbb read here: pillow's import is ~10 ms of a run's start-up
+        return _interpolate([[int(c[k:k + 2], 16) for k in (1, 3, 5)] for c in BUILTIN[spec]])
+    from PIL import ImageColor
+
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
         from .images import read_image
 

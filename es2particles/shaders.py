@@ -9,6 +9,7 @@ the file a person edits, not the expanded text the driver saw.
 
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 from .errors import ShaderError
@@ -21,8 +22,10 @@ _VERSION = re.compile(r"^\s*#\s*version\b")
 _IDENT = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
+@lru_cache(maxsize=None)
 def shader_root():
-    """The folder that holds the library's GLSL ES 1.00 files.
+    """The folder that holds the library's GLSL ES 1.00 files (looked up once: every include
+    asks for it, and the package does not move while it runs).
 
     An installed package carries them as ``es2particles/_shaders/glsl100``; a source checkout (or an
     editable install) has them once, at the top-level ``shaders/glsl100``.

@@ -144,3 +144,20 @@ def test_collision_bad_input(tmp_path, capsys, arguments, message):
                  "--out", str(out)]) == 2
     assert message in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_program_exits_with_main_s_status_and_says_everything(tmp_path):
+    """`python -m es2particles` leaves without the interpreter's teardown: its exit status, its
+    last line and its file must still all be there, through pipes."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "a.png"
+    ran = subprocess.run([sys.executable, "-m", "es2particles", "run", "dejong", *SMALL,
+                          "--out", str(out)], capture_output=True, text=True)
+    assert ran.returncode == 0 and ran.stdout.startswith(f"wrote {out}") and out.is_file()
+    bad = subprocess.run([sys.executable, "-m", "es2particles", "run", "dejong", "--particles",
+                          "0", "--out", str(tmp_path / "b.png")], capture_output=True, text=True)
+    assert bad.returncode == 2
+    assert bad.stderr.startswith("es2particles: error: particles must be in [1, ")
+    assert bad.stderr.endswith("], got 0\n") and bad.stderr.count("\n") == 1

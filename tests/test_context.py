@@ -75,3 +75,21 @@ def test_context_releases_everything_and_twice_is_safe():
     ctx.release()
     ctx.release()
     assert ctx.live_objects() == {}
+
+
+def test_formats_are_probed_when_first_asked_for_and_alike_either_way():
+    """A run probes only the formats it uses; a format asked for late gets the same answer as a
+    report that probes them all (both are real draws into a target of that format)."""
+    with open_context() as lazy, open_context() as full:
+        lazy.make_current()
+        assert dict(lazy.caps.renderable) == {}  # nothing drawn yet
+        assert lazy.caps.blendable.get("r32f") is not None
+        assert set(dict(lazy.caps.renderable)) == {"r32f"}
+        assert lazy.caps.renderable.get("no-such-format") is None
+        full.make_current()
+        report = str(full.caps)  # the report asks for every format
+        lazy.make_current()
+        for fmt in ("rgba8", "rgba16f", "rgba32f", "r32f"):
+            assert f"{fmt} render target / additive blend" in report
+            assert lazy.caps.renderable[fmt] == full.caps.renderable[fmt]
+            assert lazy.caps.blendable[fmt] == full.caps.blendable[fmt]

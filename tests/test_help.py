@@ -34,3 +34,19 @@ def test_every_option_with_a_default_states_it(name, parser):
             missing.append(f"{action.option_strings[0]} (default {action.default!r})")
     assert not missing, f"{name}: " + ", ".join(missing)
     assert "``" not in (parser.description or "")
+
+
+def test_a_run_imports_only_its_own_scene():
+    """`run dejong` builds its parser without importing the other scenes or reading the package
+    metadata; a name that is not built in still finds every installed scene."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from es2particles.cli import build_parser; "
+            "build_parser(['run', 'dejong']).parse_args(['run', 'dejong', '--out', 'x.png']); "
+            "print(sorted(m for m in sys.modules if m.startswith('es2particles.scenes.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["['es2particles.scenes.attractor',", "'es2particles.scenes.base',",
+                                  "'es2particles.scenes.dejong']"]
+    with pytest.raises(SystemExit):
+        build_parser(["run", "dejongg"]).parse_args(["run", "dejongg", "--out", "x.png"])

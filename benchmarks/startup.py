@@ -1,0 +1,71 @@
+"""Where the seconds of one `es2particles run` go: run as a script with the command's arguments
+(``python benchmarks/startup.py run dejong --reseed ... --out x.png``), it walks the path of
+``es2particles.cli`` stage by stage and prints the seconds of each as JSON on stdout.
+
+Stages: imports (the CLI module and what it imports), parser (the scene's options), context (EGL),
+probe (the format probe), compiles (every shader program the pipeline links), set-up (the rest of
+building the pipeline: textures, buffers, uniforms), steps, first frame (draw and post, finished),
+readback and PNG. The interpreter's own start is timed by the bench around the process.
+"""
+
+import json
+import sys
+import time
+
+marks = {}
+clock = time.perf_counter()
+
+
+def mark(stage):
+    global clock
+    now = time.perf_counter()
+    marks[stage] = marks.get(stage, 0.0) + now - clock
+    clock = now
+
+
+def main(argv):
+    import es2particles.cli as cli
+    from es2particles import context as context_module
+    from es2particles.output import save_image
+    mark("imports")
+
+    args = cli.build_parser(argv).parse_args(argv)
+    mark("parser")
+
+    compiled = [0.0]
+    compile_program = context_module.compile_program
+
+    def timed_compile(*a, **k):
+        start = time.perf_counter()
+        try:
+            return compile_program(*a, **k)
+        finally:
+            compiled[0] += time.perf_counter() - start
+    context_module.compile_program = timed_compile
+
+    with context_module.open_context() as ctx:
+        mark("context")
+        ctx.caps
+        mark("probe")
+        scene, pipeline = cli._pipeline(ctx, args)
+        with pipeline:
+            mark("set-up")
+            marks["set-up"] -= compiled[0]
+            marks["compiles"] = compiled[0]
+            scene.before_frame(pipeline.sim, 0, 1)
+            cli._warm_up(pipeline)
+            ctx.mgl.finish()
+            mark("steps")
+            final = pipeline.render()
+            ctx.mgl.finish()
+            mark("first frame")
+            marks["compiles"] = compiled[0]  # a post program may link at its first use
+            image = (pipeline.post or pipeline.renderer).read(final)
+            mark("readback")
+            save_image(image, args.out)
+            mark("PNG")
+    print(json.dumps(marks))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

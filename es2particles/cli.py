@@ -33,6 +33,7 @@ def build_parser(argv=None):
 def main(argv=None):
     argv = _join_negative_values(sys.argv[1:] if argv is None else argv)
     args = build_parser(argv).parse_args(argv)
+    args.argv = argv  # a cluster's tasks parse the same command line
     restore = _terminate_as_interrupt()
     try:
         return args.handler(args) or 0
@@ -239,21 +240,47 @@ def _add_common_arguments(parser, running):
         add("--steps-per-frame", type=int, default=1, help="steps between frames (default 1)")
         add("--fps", type=float, default=30.0, help="animation frame rate (default 30)")
         add("--save-state", default=None, help="also write the decoded state to this .npz")
+        add("--workers", type=int, default=None,
+            help="run on a new local Dask cluster of this many worker processes, one GL context "
+                 "each (the distributed extra): an animation's frames, or a still's shares of "
+                 "particles, as tasks; the same bytes as one process")
+        add("--scheduler", default=None,
+            help="run on the Dask cluster of this scheduler address (tcp://host:8786), as "
+                 "--workers does")
 
 
-def _pipeline(ctx, args):
+def _pipeline(ctx, args, **overrides):
     """The pipeline of the parsed arguments: only what the user typed is passed; every option
-    left out takes the scene's default, resolved once in Pipeline."""
+    left out takes the scene's default, resolved once in Pipeline. ``overrides``: Pipeline
+    arguments set otherwise (a share of a still: its particles, its share, intensity 1)."""
     from .pipeline import Pipeline
-    from .post import Bloom
 
     scene = args.scene_class.from_args(args)
-    bloom = None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
-                                             args.bloom_intensity)
-    gradient = None if args.gradient == "none" else args.gradient
-    return scene, Pipeline(ctx, scene, args.particles, args.size, args.format, args.point_size,
-                           args.intensity, args.exposure, gradient, bloom, args.seed,
-                           args.rounding, args.steps, args.accumulate)
+    settings = dict(particles=args.particles, size=args.size, fmt=args.format,
+                    point_size=args.point_size, intensity=args.intensity, exposure=args.exposure,
+                    gradient=_gradient(args), bloom=_bloom(args), seed=args.seed,
+                    rounding=args.rounding, steps=args.steps, accumulate=args.accumulate)
+    return scene, Pipeline(ctx, scene, **{**settings, **overrides})
+
+
+def _gradient(args):
+    return None if args.gradient == "none" else args.gradient
+
+
+def _bloom(args):
+    from .post import Bloom
+
+    return None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
+                                            args.bloom_intensity)
+
+
+def _post(ctx, args, size, mean_density):
+    """The post passes of the parsed arguments, for a density of ``mean_density`` a pixel on
+    average (a shared still tone-maps its summed counts with them)."""
+    from .post import PostChain
+
+    return PostChain(ctx, size, mean_density, args.exposure, _gradient(args), _bloom(args),
+                     args.scene_class.from_args(args).background())
 
 
 def _plan(args):
@@ -273,6 +300,8 @@ def _run(args):
     from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                          check_video, save_image, save_state)
     from .progress import progress
+    from . import shares
+    from .shares import share_sizes
 
     start = time.perf_counter()
     frames = int(check_range("frames", args.frames, 1, 100000, integer=True))
@@ -286,7 +315,19 @@ def _run(args):
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
     _note_static_animation(args, frames)
+    sizes = share_sizes(args)
+    if args.workers is not None or args.scheduler is not None:
+        where = _run_on_cluster(args, out, frames, fps)
+        print(f"wrote {out} ({args.size}, {frames} frame(s)"
+              + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
+              + f") in {time.perf_counter() - start:.2f} s {where}")
+        return
     with open_context() as ctx:
+        if sizes is not None:
+            save_image(shares.still(ctx, args, sizes), out)
+            print(f"wrote {out} ({args.size}, {args.particles} particles in {len(sizes)} shares "
+                  f"of at most {shares.SHARE}) in {time.perf_counter() - start:.2f} s")
+            return
         scene, pipeline = _pipeline(ctx, args)
         with pipeline:
             _note_sparse(pipeline)
@@ -314,6 +355,39 @@ def _run(args):
                   f"{time.perf_counter() - start:.2f} s"
                   + (f"; density target {pipeline.renderer.format_note}"
                      if pipeline.post is not None else ""))
+
+
+def _run_on_cluster(args, out, frames, fps):
+    """Run the command on Dask (cluster.py); returns where it ran, for the last line."""
+    from . import cluster
+    from .errors import CapabilityError, ParameterError, check_range
+    from .output import check_video
+    from .pipeline import parse_size
+
+    if args.workers is not None and args.scheduler is not None:
+        raise ParameterError("give --workers (a new local cluster) or --scheduler (a running "
+                             "one), not both")
+    if args.workers is not None:
+        check_range("workers", args.workers, 1, 1024, integer=True)
+    if args.save_state is not None:
+        raise ParameterError("--save-state writes one process's state: leave out --workers and "
+                             "--scheduler to save it")
+    missing = cluster.available()
+    if missing:
+        raise CapabilityError(missing)
+    if frames > 1:
+        check_video(out, parse_size(args.size, 2 ** 16))  # workers check their own limit
+    client = cluster.connect(args)
+    try:
+        count = cluster.workers(client)
+        if frames == 1:
+            cluster.still(client, args, args.argv, out)
+        else:
+            cluster.animation(client, args, args.argv, out, fps)
+    finally:
+        cluster.close(client)
+    return (f"on {count} local worker(s)" if args.scheduler is None
+            else f"on {count} worker(s) of {args.scheduler}")
 
 
 if __name__ == "__main__":

@@ -68,8 +68,10 @@ def _profiles():
     return chosen
 
 
-def open_context():
-    """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install."""
+def open_context(device=None):
+    """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install.
+    ``device``: the index of the EGL device to render on, where a machine has several GPUs
+    (None: the driver's first)."""
     import moderngl
 
     failures = []
@@ -77,6 +79,8 @@ def open_context():
         kwargs = {"standalone": True}
         if backend:
             kwargs["backend"] = backend
+        if device is not None and backend == "egl":
+            kwargs["device_index"] = int(device)
         errors = []
         for profile, version in _profiles():
             try:

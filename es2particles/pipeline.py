@@ -76,11 +76,16 @@ class Pipeline:
         grid for each, ``Scene.sample_uniforms``), tone-mapped once. A smoother picture from the
         same particles: the noise halves with each 4x the samples, down to the floor of the
         16-bit positions' grid (README: measured).
+    share : int
+        Which share of a larger image this pipeline draws (``shares.py``): share 0 is a plain
+        run; share s > 0 starts from the seed (``seed``, s) and, reseeded, from the grid shifted
+        by samples s * accumulate onwards of the R2 sequence, so no two shares draw the same
+        particles.
     """
 
     def __init__(self, ctx, scene, particles=None, size=(1024, 1024), fmt="rgba8",
                  point_size=None, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
-                 seed=0, rounding=None, steps=None, accumulate=1):
+                 seed=0, rounding=None, steps=None, accumulate=1, share=0):
         defaults = scene.defaults
         self.ctx, self.scene = ctx, scene
         self.size = parse_size(size, ctx.caps.max_texture_size)
@@ -88,6 +93,7 @@ class Pipeline:
         steps = defaults.steps if steps is None else steps
         self.steps = int(check_range("steps", steps, 0, 10 ** 7, integer=True))
         self.accumulate = int(check_range("accumulate", accumulate, 1, 10 ** 6, integer=True))
+        self.share = int(check_range("share", share, 0, 2 ** 40, integer=True))
         if self.accumulate > 1 and scene.render == "sprites":
             raise ParameterError(f"accumulate applies to density scenes; {scene.name!r} draws "
                                  "3D sprites (leave it at 1)")
@@ -116,7 +122,9 @@ class Pipeline:
                 self.post = PostChain(ctx, self.size,
                                       self.renderer.mean_density * self.accumulate, exposure,
                                       gradient, bloom, scene.background())
-            scene.initialise(self.sim, SeededRandom(seed))
+            scene.initialise(self.sim, SeededRandom(seed if not share else (seed, share)))
+            if share:
+                self._sample(0, step=False)  # the share's own first grid
         except Exception:
             self.release()
             raise
@@ -138,6 +146,12 @@ class Pipeline:
             self.final = self.renderer.draw(self.sim.buffers, self.scene.camera_at(frame, frames),
                                             self.scene.model_at(self.sim.steps_done))
             return self.final
+        self.final = self.post.apply(self.density())
+        return self.final
+
+    def density(self):
+        """Draw this step's density (and, accumulating, the next ``accumulate - 1`` steps') into
+        the renderer's target, without the post passes; returns the density texture."""
         if self._drawn and not self._ordered:
             # Once, before the second frame: positions repeat from frame to frame, so a draw in
             # tile order pays its readback and sort (~75 ms at 2^20) back over the frames that
@@ -152,11 +166,11 @@ class Pipeline:
             self.renderer.draw(self.sim.buffers, clear=False)
         if self.accumulate > 1:
             self._sample(0, step=False)  # the next frame starts as a plain one would
-        self.final = self.post.apply(density)
-        return self.final
+        return density
 
     def _sample(self, sample, step=True):
-        uniforms = self.scene.sample_uniforms(sample, self.accumulate)
+        uniforms = self.scene.sample_uniforms(self.share * self.accumulate + sample,
+                                              self.accumulate)
         if uniforms:
             self.sim.set_uniforms(uniforms)
         if step:

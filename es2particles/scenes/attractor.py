@@ -60,7 +60,7 @@ class Attractor(Scene):
         # stays at the floor (99.9% distinct, 0.052). Reseeded frames write once: nearest is exact.
         self.defaults = Defaults(steps=1 if reseed else 20,
                                  rounding="nearest" if reseed else "dither")
-        self.positions_repeat = self.reseed
+        self.positions_repeat = self.stateless = self.reseed
 
     @classmethod
     def add_arguments(cls, parser):

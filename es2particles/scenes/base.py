@@ -59,6 +59,10 @@ class Scene:
     # True where each particle lands near last frame's place (reseeded scenes): the renderer then
     # orders its draw by framebuffer tile once, ~10% off the draw on a CPU rasteriser.
     positions_repeat = False
+    # True where each step starts afresh (reseeded scenes): a frame depends on its own uniforms
+    # alone, so the frames of an animation can be made apart, each without the ones before it
+    # (cluster.py); otherwise a frame needs every step and frame before it.
+    stateless = False
 
     # -- declarations ----------------------------------------------------------------------
 

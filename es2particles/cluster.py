@@ -1,0 +1,230 @@
+"""`es2particles run` on a Dask cluster: ``--workers N`` starts a LocalCluster of N processes,
+``--scheduler ADDRESS`` joins a running one (``pip install "es2particles[distributed]"``).
+
+Every task gets the command line itself and parses it as the one-process command does, so a
+worker builds exactly the pipeline one process would. Each worker process holds one EGL context
+for its life (made at its first task; the EGL device ``worker number mod ES2PARTICLES_DEVICES``
+where that is set on a machine with several GPUs); start remote workers with one thread each
+(``dask worker ADDRESS --nthreads 1``): a GL context is current in one thread.
+
+- **A still** of a counted scene with more than ``shares.SHARE`` particles: tasks each sum the
+  counts of a group of consecutive shares (float64, exact) and return them; the client adds the
+  groups as they come (exact, so in any order) and one last task tone-maps the sum. Any other still
+  is one task. Either way the PNG has the bytes one process writes.
+- **An animation**: a reseeded scene's frames are one task each; a stateful scene's frames need
+  the steps (and frames) before them, so the frames are cut into one contiguous run per worker,
+  each task stepping and drawing from the start and handing back only its own frames. Tasks
+  return PNG bytes; the client keeps each frame in ``OUT.frames/`` as it arrives, so a run cut
+  short and started again skips the frames it has, then assembles the animation from the folder
+  and removes it.
+"""
+
+import json
+import os
+import shutil
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from .errors import ParameterError
+
+_local = threading.local()
+GROUPS_PER_WORKER = 4  # share groups per worker: enough to even out, few returns to the client
+
+
+def available():
+    """None, or the sentence saying how to get the extra."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        return ('--workers and --scheduler need Dask\'s distributed: pip install '
+                '"es2particles[distributed]"')
+    return None
+
+
+# -- on the workers ----------------------------------------------------------------------------
+
+def worker_context():
+    """This worker thread's GL context, made at its first task and kept."""
+    ctx = getattr(_local, "ctx", None)
+    if ctx is None:
+        from .context import open_context
+
+        device = None
+        devices = int(os.environ.get("ES2PARTICLES_DEVICES", "0") or 0)
+        if devices > 1:
+            from distributed import get_worker
+
+            name = get_worker().name
+            device = (name if isinstance(name, int) else abs(hash(name))) % devices
+        ctx = _local.ctx = open_context(device=device)
+    ctx.make_current()
+    return ctx
+
+
+def _args(argv):
+    from .cli import build_parser
+
+    return build_parser(argv).parse_args(argv)
+
+
+def shares_task(argv, sizes, shares):
+    """The float64 sum of the counts of ``shares`` (see shares.py)."""
+    from .shares import sum_counts
+
+    return sum_counts(worker_context(), _args(argv), sizes, shares)
+
+
+def tone_map_task(argv, total, particles):
+    """PNG bytes of summed counts, tone-mapped."""
+    from .output import encode_png
+    from .shares import tone_map
+
+    return encode_png(tone_map(worker_context(), _args(argv), total, particles))
+
+
+def frames_task(argv, wanted):
+    """{frame: PNG bytes} of the frames ``wanted`` (ascending) of the animation of ``argv``. A
+    stateful scene runs every step and frame from the start, as one process does, and encodes only
+    the wanted ones; a reseeded scene draws the wanted frames alone."""
+    from .cli import _pipeline
+    from .output import encode_png
+
+    ctx = worker_context()
+    args = _args(argv)
+    scene, pipeline = _pipeline(ctx, args)
+    wanted = sorted(wanted)
+    out = {}
+    with pipeline:
+        scene.before_frame(pipeline.sim, 0, args.frames)
+        pipeline.warm_up()
+        frames = wanted if scene.stateless else range(wanted[-1] + 1)
+        for frame in frames:
+            if frame:
+                scene.before_frame(pipeline.sim, frame, args.frames)
+                pipeline.step(args.steps_per_frame)
+            pipeline.render(frame, args.frames)
+            if frame in wanted:
+                out[frame] = encode_png(pipeline.image())
+    return out
+
+
+# -- on the client -----------------------------------------------------------------------------
+
+def connect(args):
+    """A Dask client: of a new LocalCluster of ``args.workers`` single-thread processes, or of
+    the scheduler at ``args.scheduler``. The caller closes it (and the LocalCluster with it)."""
+    import logging
+
+    from distributed import Client, LocalCluster
+
+    if args.scheduler is not None:
+        try:
+            return Client(args.scheduler, timeout="20s")
+        except (OSError, TimeoutError, ValueError) as error:
+            raise ParameterError(f"--scheduler {args.scheduler!r}: no Dask scheduler answered "
+                                 f"({error})") from None
+    cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None, silence_logs=logging.ERROR)
+    client = Client(cluster)
+    client.cluster_to_close = cluster
+    return client
+
+
+def close(client):
+    cluster = getattr(client, "cluster_to_close", None)
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def workers(client):
+    return max(1, len(client.scheduler_info()["workers"]))
+
+
+def still(client, args, argv, out):
+    """Write the still of ``argv`` to ``out`` from the cluster."""
+    from distributed import as_completed
+
+    from .output import write_atomic
+    from .progress import progress
+    from .shares import share_sizes
+
+    sizes = share_sizes(args)
+    if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
+        data = client.submit(frames_task, argv, [0], pure=False).result()[0]
+    else:
+        groups = np.array_split(np.arange(len(sizes)),
+                                min(len(sizes), GROUPS_PER_WORKER * workers(client)))
+        futures = [client.submit(shares_task, argv, sizes, group.tolist(), pure=False)
+                   for group in groups]
+        total = None
+        for future in progress(as_completed(futures), len(futures), "share groups", unit="task"):
+            counts = future.result()
+            total = counts if total is None else total + counts  # exact: whole numbers < 2^53
+            future.release()
+        data = client.submit(tone_map_task, argv, client.scatter(total), sum(sizes),
+                             pure=False).result()
+    return write_atomic(out, lambda tmp: Path(tmp).write_bytes(data))
+
+
+def frames_folder(out):
+    return out.with_name(out.name + ".frames")
+
+
+def manifest(args):
+    """What the frames of a run depend on: every option but where it runs and the output."""
+    skip = {"workers", "scheduler", "handler", "scene_class", "argv", "out", "save_state"}
+    options = {k: v for k, v in sorted(vars(args).items()) if k not in skip}
+    return json.loads(json.dumps(options, default=str))  # as it reads back from the file
+
+
+def animation(client, args, argv, out, fps):
+    """Make the frames of ``argv`` on the cluster (those not already in ``OUT.frames/``), then
+    assemble them into ``out`` and remove the folder."""
+    from distributed import as_completed
+    from PIL import Image
+
+    from .output import AnimationWriter, check_folder, write_atomic
+    from .progress import progress
+
+    folder = frames_folder(out)
+    if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
+        raise ParameterError(f"{folder} (where the frames are kept) must be a folder, not a link "
+                             "or a file")
+    check_folder(folder.parent, "--out")
+    record = folder / "manifest.json"
+    wanted = manifest(args)
+    if folder.is_dir():
+        kept = json.loads(record.read_text()) if record.is_file() else None
+        if kept != wanted:
+            raise ParameterError(f"{folder} holds frames of another command (its manifest.json "
+                                 "differs from this one's options): remove it, or run that command "
+                                 "again to finish it")
+    else:
+        folder.mkdir()
+        write_atomic(record, lambda tmp: Path(tmp).write_text(json.dumps(wanted, indent=1)))
+    frames = args.frames
+    path = [folder / f"{frame:06d}.png" for frame in range(frames)]
+    missing = [frame for frame in range(frames) if not path[frame].is_file()]
+    if missing:
+        scene = args.scene_class.from_args(args)
+        runs = ([[f] for f in missing] if scene.stateless
+                else [r.tolist() for r in np.array_split(missing, min(len(missing), workers(client)))])
+        futures = [client.submit(frames_task, argv, run, pure=False) for run in runs]
+        done = progress(as_completed(futures), len(futures), "frame tasks", unit="task")
+        for future in done:
+            for frame, data in future.result().items():
+                write_atomic(path[frame], lambda tmp, data=data: Path(tmp).write_bytes(data))
+            future.release()
+    if out.suffix.lower() != ".mp4":
+        print(f"es2particles: assembling {frames} frames into {out}", file=sys.stderr)
+    with AnimationWriter(out, fps) as writer:
+        for frame in range(frames):
+            with Image.open(path[frame]) as image:
+                writer.add(np.asarray(image.convert("RGB")))
+        writer.close()
+    shutil.rmtree(folder)
+    return out

@@ -3,7 +3,8 @@
 Run: ``python benchmarks/bench.py`` (after ``pip install .``; ``pip install ".[bench]"`` adds
 datashader). Options: ``--sizes 16,18,20,22`` (log2 particle counts), ``--scenes
 dejong,collision,command`` (``command``: the whole ``es2particles run`` of the article's picture,
-start-up included, against the numpy + pillow script, alternately, and where its seconds go),
+start-up included, against the numpy + pillow script, alternately, and where its seconds go;
+``dask``: task overhead, and jobs in one process against LocalClusters of 1 and 2 workers),
 ``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak); ``--scenes fountain``
 adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pixels, both
 blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
@@ -28,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from peers import NumpyDeJong, NumpyFrame, datashader_dejong, png_bytes  # noqa: E402
+from peers import (NumpyDeJong, NumpyFrame, datashader_counts, datashader_dejong,  # noqa: E402
+                   png_bytes)
 
 from es2particles import open_context  # noqa: E402
 from es2particles.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
@@ -205,6 +207,74 @@ def whole_command(emit, rounds):
     for stage in STARTUP_STAGES:
         emit(f"| {stage} | {med(s[stage] for s in stages) * 1e3:.0f} |")
     emit(f"| sum | {med(sum(s.values()) for s in stages) * 1e3:.0f} |")
+
+
+def dask_section(emit, quick):
+    """Dask: what a task costs (an empty one, and one of our frame tasks on a warm worker), and
+    the same jobs in one process and on LocalClusters of 1 and 2 workers, each command timed
+    whole (the cluster's start included) and its bytes compared with one process's."""
+    import logging
+    import statistics
+
+    from distributed import Client, LocalCluster
+
+    from es2particles import cluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None,
+                      silence_logs=logging.ERROR) as local, Client(local) as client:
+        client.submit(int, 0, pure=False).result()
+        empty = []
+        for _ in range(50):
+            start = time.perf_counter()
+            client.submit(int, 0, pure=False).result()
+            empty.append(time.perf_counter() - start)
+        argv = ["run", "dejong", "--reseed", "--particles", "1024", "--size", "64x64",
+                "--frames", "2", "--out", "x.gif"]
+        client.submit(cluster.frames_task, argv, [1], pure=False).result()  # the context, made
+        tiny = []
+        for _ in range(20):
+            start = time.perf_counter()
+            client.submit(cluster.frames_task, argv, [1], pure=False).result()
+            tiny.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        client.submit(np.zeros, (1024, 1024), np.float64, pure=False).result()  # 8 MiB back
+        density = time.perf_counter() - start
+    emit(f"Task overhead (LocalCluster, 1 worker): an empty task {statistics.median(empty) * 1e3:.1f} ms "
+         f"round trip; our smallest frame task (64x64, 1024 particles: parse, pipeline, draw, PNG) "
+         f"{statistics.median(tiny) * 1e3:.0f} ms; a task returning a 1024^2 float64 sum (8 MiB) "
+         f"{density * 1e3:.0f} ms")
+    emit()
+    jobs = [("animation: reseeded de Jong, 2^20 points, 1024x1024, 24 frames",
+             ["run", "dejong", "--reseed", "--frames", "24", "--animate-to", "1.5,-2.2,2.3,-2.0"],
+             ".gif"),
+            ("animation: 3D fountain (stateful), 2^16 particles, 512x512, 24 frames",
+             ["run", "fountain", "--particles", "65536", "--size", "512x512", "--frames", "24"],
+             ".gif"),
+            (f"still: de Jong, 2^24 particles ({2 ** 24 // 2 ** 22} shares), 1024x1024",
+             ["run", "dejong", "--particles", str(2 ** 24)], ".png")]
+    if quick:
+        jobs = jobs[2:]
+    emit("| job | one process s | 1 worker s | 2 workers s | 2 workers / 1 process | same bytes |")
+    emit("|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, command, suffix in jobs:
+            times, data = [], []
+            for k, extra in enumerate(([], ["--workers", "1"], ["--workers", "2"])):
+                out = f"{tmp}/{k}{suffix}"
+                start = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "es2particles", *command, *extra, "--out",
+                                out], check=True, capture_output=True)
+                times.append(time.perf_counter() - start)
+                data.append(Path(out).read_bytes())
+            emit(f"| {label} | {times[0]:.1f} | {times[1]:.1f} | {times[2]:.1f} | "
+                 f"{times[0] / times[2]:.2f} | {'yes' if data[0] == data[1] == data[2] else 'NO'} |")
+    start = time.perf_counter()
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
+                      silence_logs=logging.ERROR):
+        pass
+    emit()
+    emit(f"Starting and closing a 2-worker LocalCluster: {time.perf_counter() - start:.1f} s "
+         "(in each --workers time above)")
 
 
 def fountain_section(ctx, sizes, repeats, emit):
@@ -392,18 +462,30 @@ def accumulation_section(ctx, emit, quick):
          f"{reference_samples:.0e} samples) and the time to make the density (steps and "
          f"binning; no tone map), de Jong, 2^20 particles, {w}x{h}, K samples per image:")
     emit()
-    emit("| K | samples | ours noise | ours s | numpy noise | numpy s | numpy s / ours s |")
-    emit("|---|---|---|---|---|---|---|")
+    ds_job = datashader_counts(count, scene.view)
+    if ds_job is not None:
+        for _ in range(20):
+            ds_job[0]()
+        ds_job[1]()  # datashader compiles its aggregation at the first call: not timed
+
+    def datashader_density(k):
+        step, counts = ds_job
+        total = counts()
+        for _ in range(1, k):
+            step()
+            total += counts()
+        return total
+
+    emit("| K | samples | ours noise | ours s | numpy noise | numpy s | numpy s / ours s | "
+         "datashader noise | datashader s | datashader s / ours s |")
+    emit("|---|---|---|---|---|---|---|---|---|---|")
     rows = []
     for k in (1, 4, 16) if quick else (1, 4, 16, 64):
         with Pipeline(ctx, scene, count, SIZE, accumulate=k) as p:
             p.warm_up()
             ctx.mgl.finish()
-            start = time.perf_counter()  # the density only, as numpy's: Pipeline.render's loop
-            p.renderer.draw(p.sim.buffers)
-            for sample in range(1, k):
-                p._sample(sample)
-                p.renderer.draw(p.sim.buffers, clear=False)
+            start = time.perf_counter()  # the density only, as the peers': Pipeline.density
+            p.density()
             ctx.mgl.finish()
             ours_t = time.perf_counter() - start
             ours_d = np.frombuffer(p.renderer.density.read(), np.float32).reshape(h, w)
@@ -413,25 +495,36 @@ def accumulation_section(ctx, emit, quick):
         start = time.perf_counter()
         peer_d = numpy_density(job, k)
         peer_t = time.perf_counter() - start
+        ds_n = ds_t = None
+        if ds_job is not None:
+            start = time.perf_counter()
+            ds_d = datashader_density(k)
+            ds_t = time.perf_counter() - start
+            ds_n = noise(ds_d, reference)
         ours_n, peer_n = noise(ours_d, reference), noise(peer_d, reference)
-        rows.append((k, ours_n, ours_t, peer_n, peer_t))
+        rows.append((k, ours_n, ours_t, peer_n, peer_t, ds_n, ds_t))
+        ds_cells = ("- | - | -" if ds_t is None else f"{ds_n:.4f} | {ds_t:.2f} | {ds_t / ours_t:.2f}")
         emit(f"| {k} | {k * count:.3g} | {ours_n:.4f} | {ours_t:.2f} | {peer_n:.4f} | "
-             f"{peer_t:.2f} | {peer_t / ours_t:.2f} |")
-    # time to equal quality: each one's noise falls as a / sqrt(K) + floor; at numpy's best
-    # noise, the time ours needs (interpolated in log K)
-    target = rows[-1][3]
+             f"{peer_t:.2f} | {peer_t / ours_t:.2f} | {ds_cells} |")
     emit()
-    if target < min(r[1] for r in rows):
-        emit(f"Ours does not reach numpy's noise at K = {rows[-1][0]} ({target:.4f}) by K = "
-             f"{rows[-1][0]}: the 16-bit position grid aliases onto the pixels (about 70 codes a "
-             "pixel, so neighbouring pixels hold 69 or 70 codes' worth), a floor of ~1-2%.")
-        return
+    # Time to equal quality: at each peer's noise at the largest K, the time ours needs
+    # (interpolated in log K between our rows), against the peer's time for that noise.
     ks = np.log([r[0] for r in rows])
-    ours_k = np.exp(np.interp(-target, [-r[1] for r in rows], ks))
-    ours_time = np.exp(np.interp(np.log(ours_k), ks, np.log([r[2] for r in rows])))
-    emit(f"To reach numpy's noise at K = {rows[-1][0]} ({target:.4f}, {rows[-1][4]:.2f} s), ours "
-         f"needs K ~ {ours_k:.1f}, {ours_time:.2f} s: numpy time / ours "
-         f"{rows[-1][4] / ours_time:.2f} to equal quality")
+    for name, n_at, t_at in (("numpy", 3, 4), ("datashader", 5, 6)):
+        if rows[-1][n_at] is None:
+            continue
+        target, peer_time = rows[-1][n_at], rows[-1][t_at]
+        if target < min(r[1] for r in rows):
+            emit(f"Ours does not reach {name}'s noise at K = {rows[-1][0]} ({target:.4f}) by K = "
+                 f"{rows[-1][0]}: the 16-bit position grid aliases onto the pixels (about 70 "
+                 "codes a pixel, so neighbouring pixels hold 69 or 70 codes' worth), a floor of "
+                 "~1-2%.")
+            continue
+        ours_k = np.exp(np.interp(-target, [-r[1] for r in rows], ks))
+        ours_time = np.exp(np.interp(np.log(ours_k), ks, np.log([r[2] for r in rows])))
+        emit(f"To reach {name}'s noise at K = {rows[-1][0]} ({target:.4f}, {peer_time:.2f} s), "
+             f"ours needs K ~ {ours_k:.1f}, {ours_time:.2f} s: {name} time / ours "
+             f"{peer_time / ours_time:.2f} to equal quality")
 
 
 def fmt_ms(t):
@@ -471,6 +564,9 @@ def main(argv=None):
                 continue
             if scene == "command":
                 whole_command(emit, 5 if args.quick else 11)
+                continue
+            if scene == "dask":
+                dask_section(emit, args.quick)
                 continue
             if scene == "smoke":
                 smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],

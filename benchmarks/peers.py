@@ -25,6 +25,29 @@ def png_bytes(image):
     return buffer.getvalue()
 
 
+def datashader_counts(count, view, size=SIZE, seed=0):
+    """(step, counts) callables of a datashader + numba job for the accumulation table, or None
+    if not installed: ``count`` random points in [-2, 2]^2, ``step()`` three iterations of the
+    map, ``counts()`` the (h, w) float64 count of points on each pixel of ``view`` (row 0 at the
+    bottom, as our density)."""
+    try:
+        import datashader as ds
+        import numba  # noqa: F401
+        import pandas as pd
+    except ImportError:
+        return None
+    step, _, _, _ = datashader_dejong(count, seed)  # compiled, and its arrays
+    x, y = step.x, step.y
+    x0, y0, x1, y1 = view
+    canvas = ds.Canvas(plot_width=size[0], plot_height=size[1], x_range=(x0, x1), y_range=(y0, y1))
+    frame = pd.DataFrame({"x": x, "y": y}, copy=False)
+
+    def counts():
+        return np.asarray(canvas.points(frame, "x", "y", agg=ds.count()).values, np.float64)
+
+    return step, counts
+
+
 def datashader_dejong(count, seed=0):
     """(step, render, post, encode) callables for datashader + numba, or None if not installed."""
     try:
@@ -53,6 +76,7 @@ def datashader_dejong(count, seed=0):
 
     def step():
         step_numba(x, y, *coefficients)
+    step.x, step.y = x, y  # the arrays it moves in place
 
     def render():
         state["agg"] = canvas.points(pd.DataFrame({"x": x, "y": y}, copy=False), "x", "y")

@@ -11,9 +11,10 @@ where that is set on a machine with several GPUs); start remote workers with one
   counts of a group of consecutive shares (float64, exact) and return them; the client adds the
   groups as they come (exact, so in any order) and one last task tone-maps the sum. Any other still
   is one task. Either way the PNG has the bytes one process writes.
-- **An animation**: a reseeded scene's frames are one task each; a stateful scene's frames need
-  the steps (and frames) before them, so the frames are cut into one contiguous run per worker,
-  each task stepping and drawing from the start and handing back only its own frames. Tasks
+- **An animation**: a reseeded scene's frames need nothing before them, so they are cut into a
+  few runs a worker, each task drawing its own frames alone; a stateful scene's frames need the
+  steps (and frames) before them, so they are cut into one contiguous run per worker, each task
+  stepping and drawing from the start and handing back only its own frames. Tasks
   return PNG bytes; the client keeps each frame in ``OUT.frames/`` as it arrives, so a run cut
   short and started again skips the frames it has, then assembles the animation from the folder
   and removes it.
@@ -31,7 +32,8 @@ import numpy as np
 from .errors import ParameterError
 
 _local = threading.local()
-GROUPS_PER_WORKER = 4  # share groups per worker: enough to even out, few returns to the client
+GROUPS_PER_WORKER = 4  # tasks a worker (share groups, runs of frames): the load evens out, and
+# each task's set-up (~25 ms) and return are paid a few times, not once a frame or share
 
 
 def available():
@@ -211,8 +213,10 @@ def animation(client, args, argv, out, fps):
     missing = [frame for frame in range(frames) if not path[frame].is_file()]
     if missing:
         scene = args.scene_class.from_args(args)
-        runs = ([[f] for f in missing] if scene.stateless
-                else [r.tolist() for r in np.array_split(missing, min(len(missing), workers(client)))])
+        # Reseeded frames need nothing before them: a few runs a worker even out the load. A
+        # stateful run steps from the start, so one run a worker (each catches up alone).
+        runs = GROUPS_PER_WORKER * workers(client) if scene.stateless else workers(client)
+        runs = [r.tolist() for r in np.array_split(missing, min(len(missing), runs))]
         futures = [client.submit(frames_task, argv, run, pure=False) for run in runs]
         done = progress(as_completed(futures), len(futures), "frame tasks", unit="task")
         for future in done:

@@ -6,13 +6,28 @@ a graph of full-screen fragment passes; everything runs headless through an EGL 
 >>> from es2particles import open_context, PassGraph, Simulation
 """
 
-from .context import Capabilities, Context, open_context
-from .errors import (CapabilityError, ContextError, Es2ParticlesError, GraphError, ParameterError,
-                     ShaderError)
-from .graph import Pass, PassGraph, Plan
-from .pipeline import Pipeline
-from .simulation import Simulation
-from .state import Layout, Quantity
+import importlib
+
+# name -> module: imported when first asked for, so `import es2particles.cli` (the program) does
+# not import numpy and the GL binding before it has parsed its command line.
+_EXPORTS = {
+    "Capabilities": "context", "Context": "context", "open_context": "context",
+    "CapabilityError": "errors", "ContextError": "errors", "Es2ParticlesError": "errors",
+    "GraphError": "errors", "ParameterError": "errors", "ShaderError": "errors",
+    "Pass": "graph", "PassGraph": "graph", "Plan": "graph", "Pipeline": "pipeline",
+    "Simulation": "simulation", "Layout": "state", "Quantity": "state",
+}
+
+
+def __getattr__(name):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+
+
+def __dir__():
+    return sorted(list(globals()) + list(_EXPORTS))
+
 
 __version__ = "0.1.0"
 __all__ = [

@@ -66,7 +66,7 @@ def console_main():
 
     # Start-up makes ~10^5 objects that live as long as the process (numpy, the GL binding, the
     # parser): collecting while they are being made is wasted (~14 ms of ~0.4 s). _run collects
-    # again once its modules are in.
+    # again once its modules are in, _report from its start; info and plan are short.
     gc.disable()
     status = main()
     try:
@@ -168,7 +168,10 @@ def _info(args):
 
 
 def _report(args):
+    import gc
     from pathlib import Path
+
+    gc.enable()  # a long run: console_main's pause of collection is for short start-ups
 
     from .context import open_context
     from .errors import ParameterError

@@ -174,7 +174,8 @@ def whole_command(emit, rounds):
             start = time.perf_counter()
             subprocess.run(args, check=True, capture_output=True)
             return time.perf_counter() - start
-        command = [sys.executable, "-m", "es2particles.cli", *ARTICLE_COMMAND, "--out", f"{tmp}/a.png"]
+        command = [sys.executable, "-m", "es2particles.cli", *ARTICLE_COMMAND,
+                   "--out", f"{tmp}/a.png"]
         script = [sys.executable, str(here / "numpy_dejong.py"), "--reseed", f"{tmp}/b.png"]
         bare = min(wall([sys.executable, "-c", "pass"]) for _ in range(3))
         wall(command), wall(script)  # warm the file cache and the shader cache
@@ -188,8 +189,8 @@ def whole_command(emit, rounds):
             stages.append(json.loads(out))
     med = statistics.median
     pairs = [n / o for n, o in zip(numpy_script, ours)]
-    emit(f"`es2particles {' '.join(ARTICLE_COMMAND)} --out x.png` against the numpy + pillow script "
-         f"making the same picture, alternately, {rounds} rounds (whole processes):")
+    emit(f"`es2particles {' '.join(ARTICLE_COMMAND)} --out x.png` against the numpy + pillow "
+         f"script making the same picture, alternately, {rounds} rounds (whole processes):")
     emit()
     emit("| | median s | min s | max s |")
     emit("|---|---|---|---|")
@@ -197,7 +198,8 @@ def whole_command(emit, rounds):
         emit(f"| {name} | {med(times):.3f} | {min(times):.3f} | {max(times):.3f} |")
     emit()
     emit(f"Whole-command ratio (script / ours): median of the rounds' ratios {med(pairs):.2f} "
-         f"(range {min(pairs):.2f}-{max(pairs):.2f}); of the medians {med(numpy_script) / med(ours):.2f}")
+         f"(range {min(pairs):.2f}-{max(pairs):.2f}); of the medians "
+         f"{med(numpy_script) / med(ours):.2f}")
     emit()
     emit(f"Where our seconds go (startup.py, median of {len(stages)} runs; the interpreter's own "
          f"start and exit, `python -c pass`, is {bare * 1e3:.0f} ms):")
@@ -239,7 +241,8 @@ def dask_section(emit, quick):
         start = time.perf_counter()
         client.submit(np.zeros, (1024, 1024), np.float64, pure=False).result()  # 8 MiB back
         density = time.perf_counter() - start
-    emit(f"Task overhead (LocalCluster, 1 worker): an empty task {statistics.median(empty) * 1e3:.1f} ms "
+    emit(f"Task overhead (LocalCluster, 1 worker): an empty task "
+         f"{statistics.median(empty) * 1e3:.1f} ms "
          f"round trip; our smallest frame task (64x64, 1024 particles: parse, pipeline, draw, PNG) "
          f"{statistics.median(tiny) * 1e3:.0f} ms; a task returning a 1024^2 float64 sum (8 MiB) "
          f"{density * 1e3:.0f} ms")
@@ -267,7 +270,8 @@ def dask_section(emit, quick):
                 times.append(time.perf_counter() - start)
                 data.append(Path(out).read_bytes())
             emit(f"| {label} | {times[0]:.1f} | {times[1]:.1f} | {times[2]:.1f} | "
-                 f"{times[0] / times[2]:.2f} | {'yes' if data[0] == data[1] == data[2] else 'NO'} |")
+                 f"{times[0] / times[2]:.2f} | "
+                 f"{'yes' if data[0] == data[1] == data[2] else 'NO'} |")
     start = time.perf_counter()
     with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None,
                       silence_logs=logging.ERROR):
@@ -503,7 +507,8 @@ def accumulation_section(ctx, emit, quick):
             ds_n = noise(ds_d, reference)
         ours_n, peer_n = noise(ours_d, reference), noise(peer_d, reference)
         rows.append((k, ours_n, ours_t, peer_n, peer_t, ds_n, ds_t))
-        ds_cells = ("- | - | -" if ds_t is None else f"{ds_n:.4f} | {ds_t:.2f} | {ds_t / ours_t:.2f}")
+        ds_cells = ("- | - | -" if ds_t is None
+                    else f"{ds_n:.4f} | {ds_t:.2f} | {ds_t / ours_t:.2f}")
         emit(f"| {k} | {k * count:.3g} | {ours_n:.4f} | {ours_t:.2f} | {peer_n:.4f} | "
              f"{peer_t:.2f} | {peer_t / ours_t:.2f} | {ds_cells} |")
     emit()

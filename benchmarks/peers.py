@@ -12,7 +12,7 @@ from PIL import Image
 
 from es2particles.ramps import load_ramp
 from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS
-from numpy_dejong import INFERNO, SIZE, NumpyDeJong, NumpyFrame  # noqa: F401 (bench imports them)
+from numpy_dejong import SIZE, NumpyDeJong, NumpyFrame  # noqa: F401 (the bench imports them)
 
 # The peer script carries its own copy of the ramp's stops: it must match ours.
 assert np.array_equal(NumpyFrame().ramp, load_ramp("inferno")[:, :3]), "numpy_dejong.INFERNO"

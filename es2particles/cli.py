@@ -308,9 +308,8 @@ def _run(args):
     from .errors import ParameterError, check_range
     from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                          check_video, save_image, save_state)
-    from .progress import progress
     from . import shares
-    from .shares import share_sizes
+    from .progress import progress
 
     gc.enable()  # console_main pauses collection while the modules come in
     start = time.perf_counter()
@@ -325,9 +324,9 @@ def _run(args):
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
     _note_static_animation(args, frames)
-    sizes = share_sizes(args)
+    sizes = shares.share_sizes(args)
     if args.workers is not None or args.scheduler is not None:
-        where = _run_on_cluster(args, out, frames, fps)
+        where = _run_on_cluster(args, out, frames, fps, sizes)
         print(f"wrote {out} ({args.size}, {frames} frame(s)"
               + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
               + f") in {time.perf_counter() - start:.2f} s {where}")
@@ -367,8 +366,9 @@ def _run(args):
                      if pipeline.post is not None else ""))
 
 
-def _run_on_cluster(args, out, frames, fps):
-    """Run the command on Dask (cluster.py); returns where it ran, for the last line."""
+def _run_on_cluster(args, out, frames, fps, sizes):
+    """Run the command on Dask (cluster.py), a still in shares of ``sizes`` particles (None:
+    one pipeline); returns where it ran, for the last line."""
     from . import cluster
     from .errors import CapabilityError, ParameterError, check_range
     from .output import check_video
@@ -391,7 +391,7 @@ def _run_on_cluster(args, out, frames, fps):
     try:
         count = cluster.workers(client)
         if frames == 1:
-            cluster.still(client, args, args.argv, out)
+            cluster.still(client, args.argv, out, sizes)
         else:
             cluster.animation(client, args, args.argv, out, fps)
     finally:

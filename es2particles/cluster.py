@@ -25,6 +25,7 @@ import os
 import shutil
 import sys
 import threading
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -59,8 +60,8 @@ def worker_context():
         if devices > 1:
             from distributed import get_worker
 
-            name = get_worker().name
-            device = (name if isinstance(name, int) else abs(hash(name))) % devices
+            name = get_worker().name  # 0, 1, ... in a LocalCluster; a string may be given
+            device = (name if isinstance(name, int) else zlib.crc32(str(name).encode())) % devices
         ctx = _local.ctx = open_context(device=device)
     ctx.make_current()
     return ctx
@@ -146,15 +147,14 @@ def workers(client):
     return max(1, len(client.scheduler_info()["workers"]))
 
 
-def still(client, args, argv, out):
-    """Write the still of ``argv`` to ``out`` from the cluster."""
+def still(client, argv, out, sizes):
+    """Write the still of ``argv`` to ``out`` from the cluster; ``sizes``: its shares'
+    particles (``shares.share_sizes``), None for one pipeline."""
     from distributed import as_completed
 
     from .output import write_atomic
     from .progress import progress
-    from .shares import share_sizes
 
-    sizes = share_sizes(args)
     if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
         data = client.submit(frames_task, argv, [0], pure=False).result()[0]
     else:
@@ -170,10 +170,6 @@ def still(client, args, argv, out):
         data = client.submit(tone_map_task, argv, client.scatter(total), sum(sizes),
                              pure=False).result()
     return write_atomic(out, lambda tmp: Path(tmp).write_bytes(data))
-
-
-def frames_folder(out):
-    return out.with_name(out.name + ".frames")
 
 
 def manifest(args):
@@ -192,7 +188,7 @@ def animation(client, args, argv, out, fps):
     from .output import AnimationWriter, check_folder, write_atomic
     from .progress import progress
 
-    folder = frames_folder(out)
+    folder = out.with_name(out.name + ".frames")
     if folder.is_symlink() or (folder.exists() and not folder.is_dir()):
         raise ParameterError(f"{folder} (where the frames are kept) must be a folder, not a link "
                              "or a file")

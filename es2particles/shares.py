@@ -94,5 +94,7 @@ def still(ctx, args, sizes):
     where there are many), summed, then tone-mapped."""
     from .progress import progress
 
-    shares = progress(range(len(sizes)), len(sizes), "shares", unit="share") if len(sizes) > 8 else range(len(sizes))
+    shares = range(len(sizes))
+    if len(sizes) > 8:
+        shares = progress(shares, len(sizes), "shares", unit="share")
     return tone_map(ctx, args, sum_counts(ctx, args, sizes, shares), sum(sizes))

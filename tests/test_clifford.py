@@ -1,7 +1,6 @@
 """The Clifford attractor against an independent float64 numpy run of its map, as de Jong's."""
 
 import numpy as np
-import pytest
 
 from conftest import run_scene
 from es2particles import Simulation

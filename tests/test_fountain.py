@@ -1,8 +1,6 @@
 """The 3D fountain: its step against a float64 twin, the floor, and the sprite renderer's
 projection, sizes and depth against the camera's float64 twin, on real GL."""
 
-from dataclasses import replace
-
 import numpy as np
 import pytest
 

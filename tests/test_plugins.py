@@ -9,8 +9,6 @@ import subprocess
 import sys
 import zipfile
 
-import pytest
-
 SCENE = '''"""A tiny plug-in scene: particles spiral towards the centre."""
 from importlib.resources import files
 

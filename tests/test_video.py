@@ -4,7 +4,6 @@ assembled from spilled frames; nothing is left behind by a failure."""
 import numpy as np
 import pytest
 
-from es2particles import ParameterError
 from es2particles.cli import main
 from es2particles.output import AnimationWriter
 

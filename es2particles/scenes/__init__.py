@@ -17,10 +17,10 @@ BUILT_IN = {"dejong": "es2particles.scenes.dejong:DeJong",
             "fountain": "es2particles.scenes.fountain:Fountain",
             "collision3d": "es2particles.scenes.collision3d:Collision3D",
             "smoke": "es2particles.scenes.smoke:Smoke"}
-# What ``from es2particles.scenes import X`` gives, each imported when first asked for.
+# What ``from es2particles.scenes import X`` gives (name -> module), imported when first asked for.
 _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene": "base",
-            **{path.rsplit(":", 1)[1]: path.split(":")[0].rsplit(".", 1)[1]
-               for path in BUILT_IN.values()}}
+            "DeJong": "dejong", "Clifford": "clifford", "Collision": "collision",
+            "Fountain": "fountain", "Collision3D": "collision3d", "Smoke": "smoke"}
 
 __all__ = sorted(_EXPORTS) + ["installed_scenes", "scene_class", "ENTRY_POINT_GROUP"]
 

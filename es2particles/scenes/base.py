@@ -40,6 +40,13 @@ class Defaults:
     rounding: str = "nearest"
 
 
+def steady_steps(physics):
+    """Steps of one longest lifetime (``physics.lifetime[1] / physics.dt``, rounded up): run
+    before the first frame, an emitting scene's particles are all born and dying at a steady
+    rate from that frame on."""
+    return int(np.ceil(physics.lifetime[1] / physics.dt))
+
+
 @dataclass(frozen=True)
 class Fill:
     """A start drawn uniformly from the box [lo, hi] (one bound per component, or one for all)."""

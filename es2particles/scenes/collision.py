@@ -25,7 +25,7 @@ from ..errors import ParameterError, check_range
 from ..field import CollisionField, cell_size, parse_shape
 from ..graph import PassGraph
 from ..twins.life import LIFE_STEPS, life_range, longest_life, staggered_births
-from .base import Defaults, Scene
+from .base import Defaults, Scene, steady_steps
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
 # The most sub-steps a particle's step may take: a loop bound compiled into the shader (ES 1.00
@@ -160,7 +160,7 @@ class Collision(Scene):
         # Steady from the first frame: run one longest lifetime before it (see start). 2^17
         # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
         # a slow particle's sub-code moves are kept on average.
-        steps = int(np.ceil(physics.lifetime[1] / physics.dt)) if physics.emit else 0
+        steps = steady_steps(physics) if physics.emit else 0
         self.defaults = Defaults(particles=2 ** 17, point_size=2.0, steps=steps, rounding="dither")
 
     @classmethod

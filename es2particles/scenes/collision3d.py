@@ -20,7 +20,7 @@ from ..errors import ParameterError, check_range
 from ..field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
 from ..graph import PassGraph
 from ..twins.life import life_range, longest_life, staggered_births
-from .base import Defaults, Scene, parse_numbers
+from .base import Defaults, Scene, parse_numbers, steady_steps
 
 FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
 HEIGHT = 7.0  # y in [-1, 7]: 8 units, the floor y = 0 a code of the 16-bit grid (see fountain.py)
@@ -186,7 +186,7 @@ class Collision3D(Scene):
                 f"dt {p.dt:g} at max speed {p.max_speed:g} (and the object's motion) with voxels "
                 f"of {f.voxel * p.scale:.3g} needs {self.max_substeps} sub-steps of half a voxel; "
                 f"at most {SUBSTEP_LIMIT}: lower --dt or --field-resolution")
-        steps = int(np.ceil(p.lifetime[1] / p.dt))
+        steps = steady_steps(p)
         self.defaults = Defaults(particles=2 ** 14, point_size=9.0, steps=steps, rounding="dither")
 
     @classmethod
@@ -357,8 +357,6 @@ class Collision3D(Scene):
                 "opacity": 0.9}
 
     def describe(self):
-        from .. import astc
-
         p, f = self.physics, self.field
         nx, ny, nz = f.cells
         lines = [f"collision field: {nx}x{ny}x{nz} voxels of {f.voxel:.4g} m around "

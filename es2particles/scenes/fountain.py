@@ -8,7 +8,7 @@ one per quantity, run the same ``particle_step()`` of ``fountain.frag``. World u
 the floor is the plane y = 0. float64 twin: ``twins/fountain.py``.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -17,7 +17,7 @@ from ..errors import ParameterError, check_range
 from ..graph import PassGraph
 from ..sprites import box, crate_texture, floor
 from ..twins.life import life_range, longest_life, staggered_births
-from .base import Defaults, Scene
+from .base import Defaults, Scene, steady_steps
 
 FLOOR_HALF = 6.0  # the floor is [-6, 6]^2; x and z of the position range too
 # The position's y range is [-1, HEIGHT]: 8 units, so the floor y = 0 is exactly a code of the
@@ -112,7 +112,7 @@ class Fountain(Scene):
         # Steady from the first frame: one longest lifetime before it. Sprites of 20 pixels at
         # the fixed camera's distance; 2^11 particles: the seed's glowing fireballs stay
         # separate (2^14 at these sizes sum to a white blob under additive blending).
-        steps = int(np.ceil(physics.lifetime[1] / physics.dt))
+        steps = steady_steps(physics)
         self.defaults = Defaults(particles=2 ** 11, point_size=20.0, steps=steps,
                                  rounding="dither")
 

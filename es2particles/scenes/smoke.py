@@ -18,7 +18,7 @@ from ..errors import ParameterError, check_range
 from ..graph import PassGraph
 from ..shadow import OpacityShadow
 from ..twins.life import life_range, longest_life, staggered_births
-from .base import Defaults, Scene, parse_numbers
+from .base import Defaults, Scene, parse_numbers, steady_steps
 
 HALF = 4.0  # x and z of the position range: [-4, 4]
 LOW, HIGH = -0.5, 7.5  # its y range: 8 m
@@ -145,7 +145,7 @@ class Smoke(Scene):
         self.physics, self.sort, self.camera = physics, sort, camera
         self.opacity = check_range("opacity", opacity, 0.0, 1.0)
         # Steady from the first frame: one longest lifetime before it.
-        steps = int(np.ceil(physics.lifetime[1] / physics.dt))
+        steps = steady_steps(physics)
         self.defaults = Defaults(particles=2 ** 15, point_size=16.0, steps=steps,
                                  rounding="dither")
 

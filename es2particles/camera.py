@@ -71,6 +71,11 @@ class Camera:
         m[:3, 3] = -m[:3, :3] @ eye
         return m
 
+    def focal_pixels(self, height):
+        """Pixels a unit length covers at depth 1 in a viewport ``height`` pixels tall
+        (perspective): height / 2 / tan(fov / 2)."""
+        return height / 2 / np.tan(np.radians(self.fov) / 2)
+
     def projection(self, aspect):
         """Eye to clip space, 4x4, for a viewport of width / height ``aspect``."""
         n, f = self.near, self.far

@@ -146,7 +146,7 @@ class ShadowMap:
         self.unit = RGBA8_UNIT if self.format == "rgba8" else 1.0
         camera = settings.camera()
         self.view_projection = camera.uniform(1.0)
-        self.focal = settings.size / 2 / np.tan(np.radians(camera.fov) / 2)  # pixels at depth 1
+        self.focal = camera.focal_pixels(settings.size)
         self.size_spread, self.point_size_range = size_spread, point_size_range
         self.opacity, self.sprite = float(opacity * self.unit), sprite
         self.group = ctx.group()

@@ -10,9 +10,8 @@ import numpy as np
 from .bindings import pass_interface, uniform_value
 from .command import FullscreenCommand
 from .errors import Es2ParticlesError, ParameterError, ShaderError, check_range
-from .state import Layout, StateBuffer, per_component
+from .state import FORMATS, Layout, StateBuffer, per_component
 
-FORMATS = ("rgba8", "rgba16f", "rgba32f")
 ROUNDINGS = ("nearest", "dither")
 AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
 
@@ -77,7 +76,6 @@ class _Draw:
         textures = dict(self.fixed_textures)
         for sampler, buffer, part, new in self.inputs:
             textures[sampler] = (buffer.written if new else buffer.fronts)[part]
-        self.command.state.current()
         if self.step_uniform is not None:
             self.step_uniform.value = float(step)
         self.command.draw(self.written.framebuffer(self.part), textures)

@@ -39,7 +39,8 @@ import numpy as np
 from .bindings import stage_interface
 from .command import FullscreenCommand
 from .errors import CapabilityError, ParameterError, check_range
-from .state import Layout
+from .context import numpy_dtype
+from .state import FORMATS as STATE_FORMATS, Layout
 
 FORMATS = ("rgba8", "rgba32f")
 MAX_COUNT = 2 ** 24  # every slot number and index must be an integer float32 holds exactly
@@ -348,8 +349,8 @@ class SortingNetwork:
     def read_slots(self):
         """(keys, indices) of every slot of the front order (padding included)."""
         self.ctx.make_current()
-        dtype = np.float32 if self.fmt == "rgba32f" else np.uint8
-        return self.decode(np.frombuffer(self.texture.read(), dtype=dtype).reshape(-1, 4))
+        texels = np.frombuffer(self.texture.read(), dtype=numpy_dtype(self.fmt))
+        return self.decode(texels.reshape(-1, 4))
 
     def read(self):
         """(keys, indices) of the first ``count`` slots, in order (numpy; for tests and tools)."""
@@ -387,9 +388,6 @@ class SortingNetwork:
 
     def __exit__(self, *exc):
         self.release()
-
-
-STATE_FORMATS = ("rgba8", "rgba16f", "rgba32f")
 
 
 class DepthSorter:

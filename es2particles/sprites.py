@@ -320,9 +320,6 @@ class SpriteRenderer:
                  fade=1.0, blend="add", tint=(1.0, 0.15, 0.05, 0.35), opacity=0.8,
                  light=(3.0, 6.0, 4.0), background=(0.05, 0.06, 0.09), sort=None, shadow=None,
                  growth=1.0):
-        if ctx.caps.max_vertex_texture_units < 1:
-            raise CapabilityError("no support for vertex shader textures "
-                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0): cannot draw particles")
         if set(quantities) != set(self.READS) or quantities["position"].components != 3:
             raise ParameterError(f"the sprite renderer reads position (3 components) and life, got "
                                  f"{ {q: v.components for q, v in quantities.items()} }")
@@ -451,8 +448,7 @@ class SpriteRenderer:
         its pixel size at eye distance d is pixel_size / (sqrt(c) d) by the attenuation."""
         if camera.ortho is not None:
             raise ParameterError("shadows need a perspective camera (a sprite's world size)")
-        pixels_at_1 = self.size[1] / 2 / np.tan(np.radians(camera.fov) / 2)
-        return self.pixel_size / np.sqrt(self.attenuation[2]) / pixels_at_1
+        return self.pixel_size / np.sqrt(self.attenuation[2]) / camera.focal_pixels(self.size[1])
 
     def draw(self, buffers, camera, model=None):
         """Draw the meshes and the particles seen from ``camera``; returns the colour texture.

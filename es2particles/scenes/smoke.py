@@ -134,12 +134,7 @@ class Smoke(Scene):
         if len(self.colour) != 3 or len(self.light) != 3:
             raise ParameterError("colour and light must be three numbers each")
         self.shadow = None
-        if shadows:
-            near = 1.1 * SHADOW_RADIUS
-            if np.linalg.norm(np.subtract(self.light, TARGET)) < near:
-                raise ParameterError(f"light must be at least {near:.3g} m from the smoke's "
-                                     f"centre {TARGET} (outside the shadowed sphere), got "
-                                     f"{self.light}")
+        if shadows:  # OpacityShadow checks that the light is outside the shadowed sphere
             self.shadow = OpacityShadow(light=self.light, centre=TARGET, radius=SHADOW_RADIUS,
                                         extinction=0.6, ambient=0.3)
         self.physics, self.sort, self.camera = physics, sort, camera

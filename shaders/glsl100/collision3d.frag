@@ -132,14 +132,9 @@ Particle emit(vec2 uv)
     return p;
 }
 
-bool finite(vec3 a)
-{
-    return abs(a.x) < 1e30 && abs(a.y) < 1e30 && abs(a.z) < 1e30;
-}
-
 Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
 {
-    if (!(finite(x) && finite(v) && abs(life.x) < 1e30 && abs(life.y) < 1e30)) {
+    if (!(finite(x) && finite(v) && finite(life))) {
         return emit(uv);
     }
     Particle p;

@@ -8,6 +8,18 @@
 // write different quantities agree without extra state. numpy twin: es2particles/life.py.
 #include "lib/hash.glsl"
 
+// False for NaN (every comparison with NaN fails) and for +-Inf: non-finite state (only float
+// formats can hold it) is caught by the emitting scenes' steps and the particle re-emitted.
+bool finite(vec2 a)
+{
+    return abs(a.x) < 1e30 && abs(a.y) < 1e30;
+}
+
+bool finite(vec3 a)
+{
+    return abs(a.x) < 1e30 && abs(a.y) < 1e30 && abs(a.z) < 1e30;
+}
+
 bool life_alive(vec2 life)
 {
     return life.x >= 0.0 && life.x < life.y;

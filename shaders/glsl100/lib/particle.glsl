@@ -160,12 +160,6 @@ Particle spawn(vec2 uv)
     return p;
 }
 
-bool finite(vec2 a)
-{
-    // False for NaN (every comparison with NaN fails) and for +-Inf.
-    return abs(a.x) < 1e30 && abs(a.y) < 1e30;
-}
-
 Particle particle_step(vec2 x, vec2 v, vec2 life, vec2 uv)
 {
     if (!(finite(x) && finite(v) && finite(life))) {

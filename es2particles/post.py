@@ -6,7 +6,7 @@ then bloom. Each is optional: a switched-off pass makes no texture and never run
   composite onto the image.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,29 +44,85 @@ def blur_taps(sigma, taps=12):
     pairs = []
     for i in range(1, taps + 1, 2):
         weight = w[i] + w[i + 1]
-        pairs.append(((i * w[i] + (i + 1) * w[i + 1]) / weight, weight))
+        pairs.append((float((i * w[i] + (i + 1) * w[i + 1]) / weight), float(weight)))
     return float(w[0]), pairs
 
 
-class _Stage:
-    """One full-screen post pass: its command and the texture it renders into (``output``)."""
+@dataclass(frozen=True)
+class PostStage:
+    """One full-screen post pass as data: its shader and defines, target size, own uniforms, and
+    where each sampler's texture comes from: ``density`` (the renderer's target), ``ramp`` or
+    ``background`` (the chain's fixed textures) or an earlier stage's name. ``PostChain`` draws
+    these on EGL; ``export.py`` writes the same list into a WebGL page."""
 
-    def __init__(self, group, frag, size, name, defines=None, fmt="rgba8"):
-        self.command = FullscreenCommand(group, frag, f"post stage {name}", defines)
-        self.output = group.texture(size, fmt, filter_nearest=False)
+    name: str
+    frag: str
+    size: tuple
+    uniforms: dict
+    inputs: dict
+    defines: dict = field(default_factory=dict)
+
+
+def post_stages(size, mean_density, exposure, gradient=True, bloom=None, background=False):
+    """The post chain's stages in drawing order (the last one's output is the image):
+    tone map, with the gradient map where ``gradient`` and the scene's objects under it where
+    ``background``, then bloom's bright, blur x, blur y at 1/2 and 1/4 size and its composite."""
+    w, h = size
+    defines, inputs = {}, {"u_density": "density"}
+    if gradient:
+        defines["GRADIENT"], inputs["u_ramp"] = None, "ramp"
+    if background:
+        defines["BACKGROUND"], inputs["u_background"] = None, "background"
+    stages = [PostStage("tone map", "post/tonemap.frag", (w, h),
+                        {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure},
+                        inputs, defines)]
+    if bloom is None:
+        return stages
+    blurred = []
+    for div in (2, 4):
+        level = (max(1, w // div), max(1, h // div))
+        # Sigma is in texels of each level, so the quarter level glows twice as wide.
+        centre, pairs = blur_taps(bloom.radius)
+        names = [f"bloom {what} 1/{div}" for what in ("bright", "blur x", "blur y")]
+        stages += [
+            PostStage(names[0], "post/bright.frag", level, {"u_threshold": bloom.threshold},
+                      {"u_source": "tone map"}),
+            PostStage(names[1], "post/blur.frag", level,
+                      {"u_direction": (1 / level[0], 0.0), "u_centre": centre, "u_taps": pairs},
+                      {"u_source": names[0]}),
+            PostStage(names[2], "post/blur.frag", level,
+                      {"u_direction": (0.0, 1 / level[1]), "u_centre": centre, "u_taps": pairs},
+                      {"u_source": names[1]})]
+        blurred.append(names[2])
+    stages.append(PostStage("bloom composite", "post/composite.frag", (w, h),
+                            {"u_intensity": bloom.intensity / 2},
+                            {"u_source": "tone map", "u_bloom0": blurred[0],
+                             "u_bloom1": blurred[1]}))
+    return stages
+
+
+class _Stage:
+    """One post stage made real: its command and the texture it renders into (``output``)."""
+
+    def __init__(self, group, spec):
+        self.spec = spec
+        self.command = FullscreenCommand(group, spec.frag, f"post stage {spec.name}",
+                                         spec.defines)
+        self.command.set_many(spec.uniforms)
+        self.output = group.texture(spec.size, "rgba8", filter_nearest=False)
         self.framebuffer = group.framebuffer(self.output)
 
-    def set(self, **uniforms):
-        self.command.set_many(uniforms)
-
-    def run(self, **textures):
-        """Draw with ``textures`` bound by sampler name; returns the output texture."""
-        self.command.draw(self.framebuffer, textures)
+    def run(self, textures):
+        """Draw with the stage's inputs looked up in ``textures`` (source name -> texture);
+        returns the output texture."""
+        self.command.draw(self.framebuffer, {sampler: textures[source]
+                                             for sampler, source in self.spec.inputs.items()})
         return self.output
 
 
 class PostChain:
-    """Tone map (with optional gradient map) and optional bloom, at ``size`` pixels.
+    """Tone map (with optional gradient map) and optional bloom, at ``size`` pixels: the stages
+    of :func:`post_stages`, made real.
 
     Parameters
     ----------
@@ -92,54 +148,28 @@ class PostChain:
         ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
         self.group = ctx.group()
         self.stages = []
-        self.inputs = {}  # fixed textures of the tone map, by sampler name
+        self.inputs = {}  # the chain's fixed textures, by source name
         try:
-            defines = {}
             if ramp is not None:
-                self.inputs["u_ramp"] = self.group.texture((256, 1), "rgba8", data=ramp.tobytes(),
-                                                           filter_nearest=False)
-                defines["GRADIENT"] = None
+                self.inputs["ramp"] = self.group.texture((256, 1), "rgba8", data=ramp.tobytes(),
+                                                         filter_nearest=False)
             if background is not None:
                 h, w = background.shape[:2]
-                self.inputs["u_background"] = self.group.texture(
+                self.inputs["background"] = self.group.texture(
                     (w, h), "rgba8", data=np.ascontiguousarray(background, np.uint8).tobytes(),
                     filter_nearest=False)
-                defines["BACKGROUND"] = None
-            self.tonemap = self._stage("post/tonemap.frag", self.size, "tone map", defines)
-            self.tonemap.set(u_mean=float(max(mean_density, 1e-12)), u_exposure=exposure)
-            if bloom is not None:
-                self._make_bloom(bloom)
+            for spec in post_stages(self.size, mean_density, exposure, ramp is not None, bloom,
+                                    background is not None):
+                self.stages.append(_Stage(self.group, spec))
         except Exception:
             self.release()
             raise
-
-    def _stage(self, frag, size, name, defines=None):
-        stage = _Stage(self.group, frag, size, name, defines)
-        self.stages.append(stage)
-        return stage
-
-    def _make_bloom(self, bloom):
-        w, h = self.size
-        self.levels = []
-        for div in (2, 4):
-            size = (max(1, w // div), max(1, h // div))
-            bright = self._stage("post/bright.frag", size, f"bloom bright 1/{div}")
-            bright.set(u_threshold=bloom.threshold)
-            blur_x = self._stage("post/blur.frag", size, f"bloom blur x 1/{div}")
-            blur_y = self._stage("post/blur.frag", size, f"bloom blur y 1/{div}")
-            # Sigma is in texels of each level, so the quarter level glows twice as wide.
-            centre, pairs = blur_taps(bloom.radius)
-            blur_x.set(u_direction=(1 / size[0], 0.0), u_centre=centre, u_taps=pairs)
-            blur_y.set(u_direction=(0.0, 1 / size[1]), u_centre=centre, u_taps=pairs)
-            self.levels.append((bright, blur_x, blur_y))
-        self.composite = self._stage("post/composite.frag", self.size, "bloom composite")
-        self.composite.set(u_intensity=bloom.intensity / 2)
 
     def describe(self):
         """Lines for the printed plan: what runs, with its textures."""
         w, h = self.size
         ramp = f"gradient map '{self.gradient}'" if self.gradient is not None else "grey (no gradient map)"
-        under = " over the scene's objects" if "u_background" in self.inputs else ""
+        under = " over the scene's objects" if "background" in self.inputs else ""
         lines = [f"tone map (log) + {ramp}{under} -> colour rgba8 {w}x{h} ({format_bytes(4 * w * h)})"]
         if self.bloom is not None:
             b = self.bloom
@@ -161,14 +191,10 @@ class PostChain:
     def apply(self, density):
         """Run the chain on the density texture; returns the final RGBA8 texture."""
         self.ctx.make_current()
-        image = self.tonemap.run(u_density=density, **self.inputs)
-        if self.bloom is None:
-            return image
-        blurred = []
-        for bright, blur_x, blur_y in self.levels:
-            half = bright.run(u_source=image)
-            blurred.append(blur_y.run(u_source=blur_x.run(u_source=half)))
-        return self.composite.run(u_source=image, u_bloom0=blurred[0], u_bloom1=blurred[1])
+        textures = {**self.inputs, "density": density}
+        for stage in self.stages:
+            textures[stage.spec.name] = stage.run(textures)
+        return self.stages[-1].output
 
     def read(self, texture):
         """An RGBA8 texture as an (h, w, 3) uint8 image, top row first."""

@@ -2,8 +2,10 @@
 sub-step cap, clocks, float formats, contact symmetry, bad inputs...), each as a stability case
 the report prints with its figure and bound; here each must pass."""
 
+import numpy as np
 import pytest
 
+from conftest import run_fullscreen
 from es2particles.report.stability import NUMERICS
 
 
@@ -63,3 +65,25 @@ def test_a_range_that_overflows_float32_is_refused():
         PassGraph().quantity("q", -1e300, 1e300)
     with pytest.raises(ParameterError, match="overflows float32"):
         PassGraph().quantity("q", -3e38, 3e38)  # each bound fits; the span does not
+
+
+@pytest.mark.parametrize("reach, tolerance", [(4.0, 1.2e-7), (1e2, 1.2e-7), (2e4, 3e-7)])
+def test_trig_is_float64_sin_and_cos_to_float32_rounding(gl, reach, tolerance):
+    """lib/trig.glsl, which the attractors use so that a browser's WebGL computes the same
+    state as EGL: against float64 sin and cos, and bit for bit against its numpy twin (only
+    + - * floor, rounded in float32 step by step)."""
+    from es2particles.twins.trig import sin_cos
+
+    x = np.random.default_rng(7).uniform(-reach, reach, 64 * 64).astype(np.float32)
+    source = gl.texture((64, 64), "rgba32f", data=np.repeat(x, 4).astype(np.float32).tobytes())
+    try:
+        out = run_fullscreen(gl, "trig.frag", source, "rgba32f")
+    finally:
+        gl.free(source)
+    exact = x.astype(np.float64)
+    for k, (reference, name) in enumerate(((np.sin(exact), "sin"), (np.cos(exact), "cos"))):
+        error = np.abs(out[:, k] - reference).max()
+        assert error <= tolerance, f"trig_{name} within +-{reach:g}: error {error:.3g}"
+        twin = sin_cos(x)[k]
+        assert np.array_equal(out[:, k], twin), \
+            f"trig_{name}: {np.count_nonzero(out[:, k] != twin)} values differ from the twin"

@@ -30,6 +30,15 @@ ACCUMULATION_FORMATS = ("r32f", "rgba32f", "rgba16f", "rgba8")
 SOFTWARE_DRAW_SLICE = 2 ** 14
 
 
+def point_uniforms(view, point_size, size):
+    """The point renderer's own uniforms: the world rectangle ``view`` (x0, y0, x1, y1) as origin
+    and size, the point size, and the target's size in pixels (``points.vert`` snaps each point
+    to the pixel grid with it)."""
+    x0, y0, x1, y1 = (float(v) for v in view)
+    return {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": float(point_size),
+            "u_target_size": (float(size[0]), float(size[1]))}
+
+
 def choose_accumulation(ctx):
     """The first format that can take additive blending, and why it was taken."""
     for fmt in ACCUMULATION_FORMATS:
@@ -138,7 +147,7 @@ class PointRenderer:
         defines = {}
         if "life" in quantities:
             defines["AGE_FADE"] = None
-        uniforms = {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": self.point_size}
+        uniforms = point_uniforms(view, self.point_size, self.size)
         self.group = ctx.group()
         try:
             self.stage = ParticleStage(self.group, "points.vert", "points.frag",

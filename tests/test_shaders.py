@@ -88,7 +88,8 @@ def programs():
         quantities = graphs["collision"].quantities
         for reads in (("position",), ("position", "life")):
             prelude = stage_interface(reads, quantities, fmt,
-                                      {"u_view": (0, 0, 1, 1), "u_point_size": 1.0}).lines
+                                      {"u_view": (0, 0, 1, 1), "u_point_size": 1.0,
+                                       "u_target_size": (64.0, 64.0)}).lines
             fade = {"AGE_FADE": None} if "life" in reads else {}
             out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", fade, prelude))
         sprite_uniforms = {"u_eye": (0, 0, 1), "u_size": (1, 0, 1, 64),

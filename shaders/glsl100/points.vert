@@ -2,7 +2,8 @@
 // One point per particle: fetch its position from the state texture (vertex texture fetch) at
 // the texel this vertex names. GLSL ES 1.00 has no gl_VertexID, so a static buffer of texel
 // coordinates, made once, is the index. read_position() and read_life(), the samplers behind
-// them and u_view, u_point_size are declared by the renderer (es2particles/bindings.py).
+// them and u_view, u_point_size, u_target_size are declared by the renderer
+// (render.point_uniforms, written by es2particles/bindings.py).
 attribute vec2 a_texel;
 #ifdef AGE_FADE
 #include "lib/life.glsl"
@@ -12,7 +13,14 @@ varying float v_fade;
 void main()
 {
     vec2 p = read_position(a_texel);
-    gl_Position = vec4((p - u_view.xy) / u_view.zw * 2.0 - 1.0, 0.0, 1.0);
+    // The point's square is put with its lower-left corner on a pixel corner. A rasteriser
+    // places a vertex to its own sub-pixel precision (llvmpipe 1/256 of a pixel, SwiftShader,
+    // under Chromium's WebGL, 1/16), so an unsnapped point near a pixel's edge lands on either
+    // side; snapped, every driver lights the same pixels: for size 1, pixel floor(x) of
+    // x = (p - view origin) / view size * target size.
+    vec2 pixel = (p - u_view.xy) / u_view.zw * u_target_size;
+    vec2 corner = floor(pixel - 0.5 * u_point_size + 0.5);
+    gl_Position = vec4((corner + 0.5 * u_point_size) / u_target_size * 2.0 - 1.0, 0.0, 1.0);
     gl_PointSize = u_point_size;
 #ifdef AGE_FADE
     // life = (age, lifetime): fade out as the particle gets older; unborn (age < 0) and dead

@@ -13,7 +13,7 @@
 
 const float TRIG_TWO_OVER_PI = 0.636619772367581;
 const float TRIG_PIO2_1 = 1.5703125;                  // 8 significant bits
-const float TRIG_PIO2_2 = 4.837512969970703125e-4;    // 12 significant bits
+const float TRIG_PIO2_2 = 4.837512969970703125e-4;    // 11 significant bits
 const float TRIG_PIO2_3 = 7.54978995489188216e-8;     // the rest of pi/2
 
 vec2 trig_sin_cos_reduced(float r)

@@ -193,23 +193,26 @@ def _report(args):
 def _add_scene_commands(commands, argv):
     from .scenes import BUILT_IN, installed_scenes, scene_class
 
-    named = argv[1] if len(argv) >= 2 and argv[0] in ("run", "plan") else None
+    named = argv[1] if len(argv) >= 2 and argv[0] in ("run", "plan", "export") else None
     scenes_found = {named: scene_class(named)} if named in BUILT_IN else installed_scenes()
     names = ", ".join(scenes_found)
+    handlers = {"run": _run, "plan": _plan, "export": _export}
     for command, text in (("run", "simulate a scene and write an image or animation"),
-                          ("plan", "print the passes a scene runs and what it leaves out")):
+                          ("plan", "print the passes a scene runs and what it leaves out"),
+                          ("export", "write a scene as one WebGL 1 page that runs it in a "
+                                     "browser (no network)")):
         parser = commands.add_parser(command, help=f"{text} (scenes: {names})",
                                      description=f"{text}. Installed scenes: {names}.")
         scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
         for name, scene in scenes_found.items():
             summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")
             sub = scenes.add_parser(name, help=summary, description=summary)
-            _add_common_arguments(sub, command == "run")
+            _add_common_arguments(sub, command)
             scene.add_arguments(sub)
-            sub.set_defaults(handler=_run if command == "run" else _plan, scene_class=scene)
+            sub.set_defaults(handler=handlers[command], scene_class=scene)
 
 
-def _add_common_arguments(parser, running):
+def _add_common_arguments(parser, command):
     add = parser.add_argument
     add("--particles", type=int, default=None,
         help="particle count (default: the scene's; 2^20 for the attractors, 2^17 for collision)")
@@ -241,7 +244,9 @@ def _add_common_arguments(parser, running):
         help="samples summed into each image of a density scene: this step's density and the "
              "next K-1 steps' (reseeded attractors shift their grid for each); smoother, "
              "1 / sqrt(K) the noise (default 1)")
-    if running:
+    if command == "export":
+        add("--out", required=True, help="the page: an .html file")
+    if command == "run":
         add("--out", required=True,
             help="output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video extra)")
         add("--frames", type=int, default=1, help="frames of an animation (default 1: a still)")
@@ -298,6 +303,28 @@ def _plan(args):
         scene, pipeline = _pipeline(ctx, args)
         with pipeline:
             print(pipeline.plan())
+
+
+def _export(args):
+    from .errors import ParameterError
+    from .export import page_plan, write_page
+    from .output import check_output
+
+    out = check_output(args.out, "--out", {".html": "HTML"})
+    if args.format != "rgba8":
+        raise ParameterError(f"--format {args.format}: a page keeps its state in rgba8, the one "
+                             "format every ES 2.0 context can render to")
+    if args.accumulate != 1:
+        raise ParameterError("--accumulate: a page draws one sample per frame (leave it at 1)")
+    scene = args.scene_class.from_args(args)
+    plan = page_plan(scene, particles=args.particles, size=args.size,
+                     point_size=args.point_size, intensity=args.intensity,
+                     exposure=args.exposure, gradient=_gradient(args), bloom=_bloom(args),
+                     seed=args.seed, rounding=args.rounding, steps=args.steps)
+    write_page(plan, out)
+    print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {scene.name}, "
+          f"{plan['layout']['count']} particles, {len(plan['passes'])} pass draws a step, "
+          f"{len(plan['post'])} post stages; open it in a browser)")
 
 
 def _run(args):

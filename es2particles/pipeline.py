@@ -27,6 +27,16 @@ def parse_size(text, max_size):
             int(check_range("size height", h, 1, max_size, integer=True)))
 
 
+def check_render_reads(scene, graph):
+    """Raise unless every quantity the scene's renderer reads is one a pass of ``graph``
+    writes: the renderer's reads are outputs of the frame's plan."""
+    for name in scene.render_reads:
+        if name not in graph.quantities or graph.writer(name) is None:
+            raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} "
+                             f"{'declares but no pass writes' if name in graph.quantities else 'does not declare'}"
+                             f" (its quantities: {', '.join(graph.quantities) or 'none'})")
+
+
 class SeededRandom:
     """numpy's random Generator for ``seed``, made when a scene first draws from it: a scene that
     draws nothing (reseeded de Jong) spares the command numpy.random's import, ~15 ms of its
@@ -98,11 +108,7 @@ class Pipeline:
             raise ParameterError(f"accumulate applies to density scenes; {scene.name!r} draws "
                                  "3D sprites (leave it at 1)")
         graph = scene.graph()
-        for name in scene.render_reads:
-            if name not in graph.quantities or graph.writer(name) is None:
-                raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} "
-                                 f"{'declares but no pass writes' if name in graph.quantities else 'does not declare'}"
-                                 f" (its quantities: {', '.join(graph.quantities) or 'none'})")
+        check_render_reads(scene, graph)
         self.sim = self.renderer = self.post = None
         try:
             self.sim = Simulation(ctx, graph, defaults.particles if particles is None else particles,

@@ -207,35 +207,12 @@ class StateBuffer:
 
     def upload(self, values):
         """Write world values (count, components) into the fronts (clamped to the range)."""
-        q = self.quantity
-        try:
-            values = np.asarray(values, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ParameterError(f"{q.name}: values must be numbers, shape ({self.layout.count}, "
-                                 f"{q.components}); got {type(values).__name__}") from None
-        if values.ndim == 1 and q.components == 1:
-            values = values[:, None]
-        if values.shape != (self.layout.count, q.components):
-            raise ParameterError(f"{q.name}: values must have shape ({self.layout.count}, "
-                                 f"{q.components}), got {values.shape}")
-        self.write_texels(packing.state_encode(values, q.lo32, q.span32, self.fmt))
+        self.write_texels(encode_values(self.quantity, self.layout, values, self.fmt))
 
     def fill_uniform(self, lo, span, rng):
         """Set the fronts to points drawn uniformly from the box [lo, lo + span] (per component,
-        clamped to the range). They are drawn in float32 straight in the range's unit box and
-        packed from there: for 2^20 two-component particles ~25 ms, against ~45-90 ms for drawing
-        float64 world points and passing them through ``upload``. (float32 draws have 24 random
-        bits, more than the 16 a packed value keeps.)"""
-        q = self.quantity
-        offset = ((lo - q.lo32) / q.span32).astype(np.float32)
-        scale = (span / q.span32).astype(np.float32)
-        unit = packing.clamp_unit(rng.random((self.layout.count, q.components), dtype=np.float32)
-                                  * scale + offset)
-        if self.fmt == "rgba8" and q.components % 2 == 0:
-            self.write_texels(packing.pack16(unit).reshape(-1, self.parts, 4))
-        else:
-            world = q.lo32 + unit * q.span32
-            self.write_texels(packing.state_encode(world, q.lo32, q.span32, self.fmt))
+        clamped to the range): see :func:`fill_texels`."""
+        self.write_texels(fill_texels(self.quantity, self.layout, lo, span, rng, self.fmt))
 
     def write_texels(self, texels):
         """Write texel contents (count, parts, 4) into the fronts as they are: the encoded values
@@ -262,3 +239,37 @@ class StateBuffer:
         return packing.state_decode(self.read_texels(), q.lo32, q.span32,
                                     self.fmt).astype(np.float64)
 
+
+
+def encode_values(quantity, layout, values, fmt):
+    """The texels (count, parts, 4) of world values (count, components) of ``quantity`` in
+    ``fmt`` (clamped to its range): what an upload writes, on EGL or into a WebGL page."""
+    q = quantity
+    try:
+        values = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{q.name}: values must be numbers, shape ({layout.count}, "
+                             f"{q.components}); got {type(values).__name__}") from None
+    if values.ndim == 1 and q.components == 1:
+        values = values[:, None]
+    if values.shape != (layout.count, q.components):
+        raise ParameterError(f"{q.name}: values must have shape ({layout.count}, "
+                             f"{q.components}), got {values.shape}")
+    return packing.state_encode(values, q.lo32, q.span32, q.format_in(fmt))
+
+
+def fill_texels(quantity, layout, lo, span, rng, fmt):
+    """The texels (count, parts, 4) of points drawn uniformly from the box [lo, lo + span] (per
+    component, clamped to the range) by numpy generator ``rng``. They are drawn in float32
+    straight in the range's unit box and packed from there: for 2^20 two-component particles
+    ~25 ms, against ~45-90 ms for drawing float64 world points and encoding those. (float32
+    draws have 24 random bits, more than the 16 a packed value keeps.)"""
+    q, fmt = quantity, quantity.format_in(fmt)
+    offset = ((lo - q.lo32) / q.span32).astype(np.float32)
+    scale = (span / q.span32).astype(np.float32)
+    unit = packing.clamp_unit(rng.random((layout.count, q.components), dtype=np.float32)
+                              * scale + offset)
+    if fmt == "rgba8" and q.components % 2 == 0:
+        return packing.pack16(unit).reshape(layout.count, q.parts(fmt), 4)
+    world = q.lo32 + unit * q.span32
+    return packing.state_encode(world, q.lo32, q.span32, fmt)

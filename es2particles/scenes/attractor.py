@@ -18,9 +18,10 @@ import numpy as np
 
 from ..errors import check_range
 from ..graph import PassGraph
-from .base import Defaults, Fill, Scene
+from .base import Control, Defaults, Fill, Scene
 
 COEFFICIENT_LIMIT = 1e4
+CONTROL_LIMIT = 4.0  # the page's sliders: -4 .. 4
 MARGIN = 0.05  # of the range's size, each side of the picture
 
 
@@ -113,6 +114,12 @@ class Attractor(Scene):
 
     def frame_uniforms(self, frame, frames):
         return {"u_coefficients": self.coefficients_at(frame, frames)}
+
+    def controls(self):
+        # The article's coefficients lie within +-3; the page keeps the exported position range,
+        # so a member whose box grows with its coefficients (Clifford) clamps beyond it.
+        return [Control(name, "u_coefficients", k, -CONTROL_LIMIT, CONTROL_LIMIT)
+                for k, name in enumerate("abcd")]
 
     def iterate(self, p, iterations=None, coefficients=None):
         """numpy twin of one pass: the map ``iterations`` times, then clamped to the range (as a

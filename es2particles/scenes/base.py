@@ -48,6 +48,18 @@ def steady_steps(physics):
 
 
 @dataclass(frozen=True)
+class Control:
+    """A slider of the scene's WebGL page (``export.py``): component ``component`` of uniform
+    ``uniform`` (which the scene's passes declare), from ``lo`` to ``hi``."""
+
+    label: str
+    uniform: str
+    component: int
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
 class Fill:
     """A start drawn uniformly from the box [lo, hi] (one bound per component, or one for all)."""
 
@@ -103,6 +115,10 @@ class Scene:
     def background(self):
         """An (h, w, 4) uint8 image drawn under the particles, or None."""
         return None
+
+    def controls(self):
+        """The sliders of the scene's WebGL page: a list of :class:`Control`."""
+        return []
 
     def describe(self):
         """Extra lines for the printed plan."""

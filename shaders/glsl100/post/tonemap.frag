@@ -2,6 +2,8 @@
 // Density to colour: a log curve, so sparse and dense regions both show, then the gradient map.
 // t = log(1 + exposure d / mean) / log(1 + exposure * HEADROOM), with mean the density of a pixel
 // if every particle landed evenly; the ramp texture maps t to a colour (GRADIENT) or grey.
+// DENSITY_COUNTS: the density is a whole count in three bytes of an RGBA8 texture (a WebGL page
+// with no blendable float target: density/add.frag), each count worth u_unit.
 precision highp float;
 precision highp sampler2D;
 
@@ -16,11 +18,25 @@ uniform sampler2D u_ramp;  // 256 x 1, linear filtering
 uniform sampler2D u_background;  // the scene's objects, drawn under the particles
 #endif
 
+#ifdef DENSITY_COUNTS
+uniform float u_unit;
+#include "lib/counts.glsl"
+#endif
+
 const float HEADROOM = 256.0;
+
+float density_at(vec2 uv)
+{
+#ifdef DENSITY_COUNTS
+    return count_decode(texture2D(u_density, uv)) * u_unit;
+#else
+    return texture2D(u_density, uv).r;
+#endif
+}
 
 void main()
 {
-    float d = texture2D(u_density, v_uv).r;
+    float d = density_at(v_uv);
     float t = log(1.0 + u_exposure * d / u_mean) / log(1.0 + u_exposure * HEADROOM);
     t = clamp(t, 0.0, 1.0);
 #ifdef GRADIENT

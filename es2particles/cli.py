@@ -316,6 +316,9 @@ def _export(args):
                              "format every ES 2.0 context can render to")
     if args.accumulate != 1:
         raise ParameterError("--accumulate: a page draws one sample per frame (leave it at 1)")
+    if getattr(args, "animate_to", None) is not None:
+        raise ParameterError("--animate-to: a page has no frame count to animate over; move "
+                             "its sliders instead")
     scene = args.scene_class.from_args(args)
     plan = page_plan(scene, particles=args.particles, size=args.size,
                      point_size=args.point_size, intensity=args.intensity,

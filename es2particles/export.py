@@ -16,7 +16,8 @@ offers (``DENSITY_PATHS``; ``?density=NAME`` in the page's address forces one):
 - ``bytes``: the same with RGBA8 batches, one code per hit, a quarter of each batch per channel
   (colour masks) so a channel holds 255 hits; nothing beyond ES 2.0.
 
-A batch channel that fills to its top sets a flag in the count, which the page reports.
+A batch channel that fills to its top sets a flag in the count; the page's
+``es2particles.density()`` counts the flagged pixels.
 """
 
 import base64
@@ -33,7 +34,6 @@ from .pipeline import SeededRandom, check_render_reads, parse_size
 from .post import post_stages
 from .ramps import load_ramp
 from .render import point_uniforms
-from .scenes.base import Fill
 from .shaders import expand
 from .state import Layout, encode_values, fill_texels
 from .twins import pack as packing
@@ -254,8 +254,3 @@ def write_page(plan, out):
 def _escape(text):
     return text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
 
-
-def count_decode(texels):
-    """numpy twin of ``count_decode`` in ``lib/counts.glsl``: (…, 4) uint8 -> whole counts."""
-    t = np.asarray(texels).astype(np.int64)
-    return t[..., 0] + 256 * t[..., 1] + 65536 * t[..., 2]

@@ -101,17 +101,19 @@ def web_run(browser, tmp_path, scene, steps, path=None, **settings):
     try:
         assert not page.errors and not page.call("error"), (page.errors, page.call("error"))
         page.call(f"step({steps})")
-        count = page.call("facts")
+        facts = page.call("facts")
         w, h = settings["size"]
         texels = np.frombuffer(base64.b64decode(page.call("state('position')")), np.uint8)
         density = page.call("density()")
         counts = np.frombuffer(base64.b64decode(density["values"]), np.float32).reshape(h, w)
         image = np.frombuffer(base64.b64decode(page.call("image()")), np.uint8).reshape(h, w, 4)
         SHOTS.mkdir(parents=True, exist_ok=True)
-        page.page.screenshot(path=str(SHOTS / f"{scene.name}-{path or 'auto'}.png"))
+        # out/webgl/dejong-auto-default.png is the README's picture of the page
+        shot = f"{scene.name}-{path or 'auto'}-{settings.get('rounding', 'default')}.png"
+        page.page.screenshot(path=str(SHOTS / shot))
         outside = [url for url in page.requests if not url.startswith(page_path.as_uri())]
         return {"texels": texels.reshape(-1, 4), "density": counts, "flagged":
-                density["flagged"], "image": image[::-1, :, :3], "facts": count,
+                density["flagged"], "image": image[::-1, :, :3], "facts": facts,
                 "outside": outside, "path": page.call("path")}
     finally:
         page.close()
@@ -134,10 +136,12 @@ def test_reseeded_dejong_page_matches_egl_byte_for_byte(gl, browser, tmp_path, p
     exact = np.mean(web["density"] == counts)
     assert r >= 0.999 and exact == 1.0, f"{path}: density correlation {r:.6f}, {exact:.2%} exact"
     assert counts.sum() == n  # every particle inside the view, counted once
-    # The post passes are the same shaders on another driver: the pictures agree closely
-    # (linear filtering and 8-bit rounding may differ by a code here and there).
+    # The post passes are the same shaders on another driver: identical here; another driver's
+    # linear filtering may round a channel the other way, by one code.
     diff = np.abs(web["image"].astype(int) - image.astype(int))
-    assert diff.mean() < 0.5 and np.percentile(diff, 99.9) <= 2, (diff.mean(), diff.max())
+    print(f"{path}: {n} texels identical, density exact on {exact:.2%} of the pixels (r {r:.6f}); "
+          f"picture mean difference {diff.mean():.3f} codes, largest {diff.max()}")
+    assert diff.max() <= 1, (diff.mean(), diff.max())
 
 
 def test_stateful_dejong_page_draws_the_same_attractor(gl, browser, tmp_path):
@@ -153,6 +157,7 @@ def test_stateful_dejong_page_draws_the_same_attractor(gl, browser, tmp_path):
         return d.reshape(64, 8, 64, 8).sum(axis=(1, 3)).ravel()
 
     r = np.corrcoef(blocks(web["density"]), blocks(counts))[0, 1]
+    print(f"stateful, dithered: block density correlation {r:.5f} after {steps} steps")
     assert r >= 0.999, f"block density correlation {r:.5f}"
 
 
@@ -181,6 +186,7 @@ def test_collision_page_runs_with_life_and_scene_textures(gl, browser, tmp_path)
             return x.reshape(32, 8, 32, 8).sum(axis=(1, 3)).ravel()
 
         r = np.corrcoef(blocks(d), blocks(counts))[0, 1]
+        print(f"collision, {path}: block density correlation {r:.4f}, {web['flagged']} flagged")
         assert r >= 0.99, f"{path}: block density correlation {r:.4f}"
 
 
@@ -219,6 +225,7 @@ def cli(*args, cwd):
     (["export", "dejong", "--format", "rgba16f", "--out", "p.html"], "--format rgba16f"),
     (["export", "dejong", "--accumulate", "4", "--out", "p.html"], "--accumulate"),
     (["export", "dejong", "--out", "p.htm"], "--out must end in .html"),
+    (["export", "dejong", "--animate-to", "1,2,3,4", "--out", "p.html"], "--animate-to"),
     (["export", "dejong", "--size", "5000x5000", "--out", "p.html"], "size width"),
 ])
 def test_export_refuses_in_one_line(tmp_path, args, message):

@@ -2,7 +2,8 @@
 // density summed exactly where no float target can be blended into (the WebGL page's
 // density/add.frag; read by post/tonemap.frag with DENSITY_COUNTS). a is a flag: 1 where a batch
 // filled a channel to its top, so the count there may be short. Exact in highp float, whose
-// 24-bit significand holds every whole number up to 2^24. numpy twin: export.count_decode.
+// 24-bit significand holds every whole number up to 2^24. The page's density() decodes the same
+// bytes in JavaScript (es2particles/webpage/executor.js).
 
 float count_decode(vec4 texel)
 {

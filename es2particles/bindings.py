@@ -172,6 +172,14 @@ BUILT_IN = {"u_state_size": "the built-in u_state_size", "u_count": "the built-i
             "u_step": "the built-in u_step (lib/state.glsl)"}
 
 
+def generated_values(interface, layout):
+    """The values of what the generated lines declare for a state ``layout``: the quantities'
+    ranges, ``u_state_size`` and ``u_count`` (set on EGL by the commands and renderers, written
+    into a WebGL page by ``export.py``)."""
+    return {**interface.fixed, "u_state_size": (float(layout.width), float(layout.height)),
+            "u_count": float(layout.count)}
+
+
 def pass_interface(spec, quantities, fmt, part=0):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.graph.Pass`)."""
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],

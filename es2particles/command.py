@@ -16,7 +16,7 @@ import re
 
 import moderngl
 
-from .bindings import compile_checked, declared_names, strip_comments
+from .bindings import compile_checked, declared_names, generated_values, strip_comments
 from .context import ProgramValues
 from .errors import ParameterError
 from .shaders import GENERATED, expand
@@ -111,9 +111,7 @@ class FullscreenCommand:
     def set_generated(self, interface, layout):
         """Set what the generated interface declares for a state ``layout``: the quantities'
         ranges, ``u_state_size`` and ``u_count`` (each where the driver kept it)."""
-        for name, value in {**interface.fixed,
-                            "u_state_size": (float(layout.width), float(layout.height)),
-                            "u_count": float(layout.count)}.items():
+        for name, value in generated_values(interface, layout).items():
             if self.has(name):
                 self.state.set(name, value)
 

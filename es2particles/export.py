@@ -28,15 +28,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .bindings import check_writes, pass_interface, stage_interface, uniform_value
+from .bindings import (check_writes, generated_values, pass_interface, stage_interface,
+                       uniform_value)
 from .errors import CapabilityError, ParameterError, check_range
 from .pipeline import SeededRandom, check_render_reads, parse_size
 from .post import post_stages
 from .ramps import load_ramp
 from .render import point_uniforms
 from .shaders import expand
-from .state import Layout, encode_values, fill_texels
-from .twins import pack as packing
+from .simulation import check_rounding, draw_defines, fill_box
+from .state import Layout, encode_values, fill_texels, part_textures, zero_texels
 
 DENSITY_PATHS = ("float", "half", "bytes")
 # What one hit adds to a batch channel, and how many codes a full-strength hit is worth: a point
@@ -87,10 +88,8 @@ class _Start:
         return self.quantities[name]
 
     def fill_uniform(self, name, lo, hi, rng):
-        from .simulation import _box
-
         q = self._quantity(name)
-        lo, span = _box(name, lo, hi, q.components)
+        lo, span = fill_box(name, lo, hi, q.components)
         self.texels[name] = fill_texels(q, self.layout, lo, span, rng, "rgba8")
 
     def upload(self, name, values):
@@ -107,14 +106,9 @@ def _bytes(array):
 
 
 def _texels(quantity, layout, texels):
-    """Each part's full texture (width x height x 4 bytes, spare texels zero) as base64."""
+    """Each part's whole texture (spare texels zero) as base64."""
     texels = np.asarray(texels, np.uint8).reshape(layout.count, quantity.parts("rgba8"), 4)
-    out = []
-    for part in range(texels.shape[1]):
-        full = np.zeros((layout.width * layout.height, 4), np.uint8)
-        full[: layout.count] = texels[:, part]
-        out.append(_bytes(full))
-    return out
+    return [_bytes(full) for full in part_textures(texels, layout, "rgba8")]
 
 
 def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensity=1.0,
@@ -130,13 +124,10 @@ def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensi
     seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
     steps = int(check_range("steps", defaults.steps if steps is None else steps, 0, 10 ** 6,
                             integer=True))
-    rounding = defaults.rounding if rounding is None else rounding
-    if rounding not in ("nearest", "dither"):
-        raise ParameterError(f"rounding must be nearest or dither, got {rounding!r}")
+    rounding = check_rounding(defaults.rounding if rounding is None else rounding)
     point_size = check_range("point_size", defaults.point_size if point_size is None
                              else point_size, 1, 64)
     intensity = check_range("intensity", intensity, 0, 1e6)
-    exposure = check_range("exposure", exposure, 1e-3, 1e3)
     graph = scene.graph()
     check_render_reads(scene, graph)
     plan = graph.plan(scene.render_reads)
@@ -156,9 +147,8 @@ def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensi
         entry = {"buffers": buffers}
         if name in start.texels:
             entry["parts"] = _texels(q, layout, start.texels[name])
-        else:  # world zero, clamped into the range: what StateBuffer clears to; one texel a part
-            zero = packing.state_encode(np.zeros((1, q.components)), q.lo32, q.span32, "rgba8")
-            entry["clear"] = np.asarray(zero, np.uint8).reshape(-1, 4).tolist()
+        else:  # what StateBuffer clears to: one texel a part
+            entry["clear"] = np.asarray(zero_texels(q, "rgba8"), np.uint8).tolist()
         quantities[name] = entry
 
     textures = {}
@@ -174,14 +164,13 @@ def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensi
     passes = []
     for spec, part, _ in plan.draws("rgba8"):
         interface = pass_interface(spec, graph.quantities, "rgba8", part)
-        defines = {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
-        stage = f"pass {spec.name!r}" + (f" (part {part + 1})" if part else "")
-        index, source = programs.add(stage, "lib/fullscreen.vert", spec.frag, defines,
+        stage = spec.stage(part)
+        index, source = programs.add(stage, "lib/fullscreen.vert", spec.frag,
+                                     draw_defines(spec, rounding),
                                      fragment_prelude=interface.lines,
                                      fragment_epilogue=interface.epilogue)
         check_writes(source, interface, stage)
-        uniforms = {**interface.fixed, "u_state_size": (layout.width, layout.height),
-                    "u_count": layout.count}
+        uniforms = generated_values(interface, layout)
         uniforms.update({name: uniform_value(name, value, interface.uniforms[name])
                          for name, value in spec.uniforms.items()})
         passes.append({"name": stage, "program": index, "writes": list(interface.writes),
@@ -196,9 +185,8 @@ def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensi
                             vertex_prelude=interface.lines)
     points = {"program": index, "fade": "life" in reads,
               "inputs": {s: list(v) for s, v in interface.samplers.items()},
-              "uniforms": {k: _flat(v) for k, v in {**interface.fixed, **own,
-                                                    "u_state_size": (layout.width,
-                                                                     layout.height)}.items()}}
+              "uniforms": {k: _flat(v) for k, v in {**generated_values(interface, layout),
+                                                    **own}.items()}}
 
     background = scene.background()
     mean = layout.count * intensity / (size[0] * size[1])

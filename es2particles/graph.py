@@ -55,6 +55,10 @@ class Pass:
     uniforms: Mapping = field(default_factory=dict)
     defines: Mapping = field(default_factory=dict)
 
+    def stage(self, part=0):
+        """How errors and plans name draw ``part`` of this pass."""
+        return f"pass {self.name!r}" + (f" (part {part + 1})" if part else "")
+
     def __post_init__(self):
         for name in ("reads", "reads_new", "textures"):
             value = getattr(self, name)

@@ -67,6 +67,7 @@ def post_stages(size, mean_density, exposure, gradient=True, bloom=None, backgro
     """The post chain's stages in drawing order (the last one's output is the image):
     tone map, with the gradient map where ``gradient`` and the scene's objects under it where
     ``background``, then bloom's bright, blur x, blur y at 1/2 and 1/4 size and its composite."""
+    exposure = check_range("exposure", exposure, 1e-3, 1e3)
     w, h = size
     defines, inputs = {}, {"u_density": "density"}
     if gradient:
@@ -143,7 +144,6 @@ class PostChain:
                  background=None):
         self.ctx, self.size = ctx, tuple(size)
         ctx.make_current()
-        exposure = check_range("exposure", exposure, 1e-3, 1e3)
         self.gradient, self.bloom = gradient, bloom
         ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
         self.group = ctx.group()

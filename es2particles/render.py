@@ -9,7 +9,7 @@ the ``count`` particles are in the buffer: spare texels are never drawn.
 import moderngl
 import numpy as np
 
-from .bindings import compile_checked, stage_interface
+from .bindings import compile_checked, generated_values, stage_interface
 from .context import ProgramValues, bytes_per_texel
 from .errors import CapabilityError, ParameterError, check_range
 from .graph import format_bytes
@@ -65,8 +65,7 @@ class ParticleStage:
             expand(vertex, defines, self.interface.lines), self.interface, f"{stage} ({vertex})")
         self.state = ProgramValues(ctx, self.program)
         self.units = {name: unit for unit, name in enumerate(self.interface.samplers)}
-        self.set_many({**self.units, **self.interface.fixed, **uniforms,
-                       "u_state_size": (float(layout.width), float(layout.height))})
+        self.set_many({**self.units, **generated_values(self.interface, layout), **uniforms})
         # Each vertex's texel: the particle's own, or (``texels``) a slot of an order texture.
         texels = layout.texel_uv() if texels is None else np.asarray(texels, np.float32)
         self.texels = group.buffer(texels.tobytes())

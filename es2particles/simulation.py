@@ -29,7 +29,18 @@ def resolve_format(ctx, fmt):
     return fmt, fmt
 
 
-def _box(name, lo, hi, components):
+def check_rounding(rounding):
+    if rounding not in ROUNDINGS:
+        raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
+    return rounding
+
+
+def draw_defines(spec, rounding):
+    """The defines of a pass's draws: the pass's own, and STATE_DITHER for dithered rounding."""
+    return {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
+
+
+def fill_box(name, lo, hi, components):
     """(lo, span) as float32 of the box [lo, hi] for a quantity of ``components``, checked."""
     lo = np.array(per_component(f"fill of {name!r}: lo", lo, components))
     hi = np.array(per_component(f"fill of {name!r}: hi", hi, components))
@@ -45,7 +56,7 @@ class _Draw:
     def __init__(self, group, spec, part, quantities, buffers, fmt, defines, layout, textures):
         self.spec = spec
         self.interface = pass_interface(spec, quantities, fmt, part)
-        stage = f"pass {spec.name!r}" + (f" (part {part + 1})" if part else "")
+        stage = spec.stage(part)
         try:
             self.command = FullscreenCommand(group, spec.frag, stage, defines, self.interface)
         except ShaderError as error:
@@ -104,8 +115,7 @@ class Simulation:
 
     def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):
         self.group = None
-        if rounding not in ROUNDINGS:
-            raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
+        check_rounding(rounding)
         ctx.make_current()
         self.ctx, self.rounding, self.graph = ctx, rounding, graph
         self.plan = graph.plan(outputs)
@@ -128,10 +138,9 @@ class Simulation:
                 h, w = data.shape[:2]
                 fmt = "rgba8" if data.dtype == np.uint8 else "rgba32f"
                 self.textures[name] = self.group.texture((w, h), fmt, data=data.tobytes())
-            defines = {"STATE_DITHER": None} if rounding == "dither" else {}
             for spec, part, _ in self.plan.draws(self.fmt):
                 self.draws.append(_Draw(self.group, spec, part, graph.quantities, self.buffers,
-                                        self.fmt, {**defines, **spec.defines}, self.layout,
+                                        self.fmt, draw_defines(spec, rounding), self.layout,
                                         self.textures))
         except Exception:
             self.release()
@@ -164,7 +173,7 @@ class Simulation:
         component, clamped to its range) by numpy generator ``rng``: a run's usual start, several
         times cheaper than ``upload`` of the same values (see ``StateBuffer.fill_uniform``)."""
         buffer = self._buffer(name)
-        lo, span = _box(name, lo, hi, buffer.quantity.components)
+        lo, span = fill_box(name, lo, hi, buffer.quantity.components)
         buffer.fill_uniform(lo, span, rng)
 
     def download(self, name):

@@ -171,8 +171,7 @@ class StateBuffer:
         self.framebuffers = [[group.framebuffer(t) for t in pair] for pair in self.textures]
         # Start at world zero (clamped into the range): a GPU clear to that texel, cheaper than
         # encoding and uploading a zero array.
-        texels = packing.state_encode(np.zeros((1, quantity.components)), quantity.lo32,
-                                      quantity.span32, fmt)[0]
+        texels = zero_texels(quantity, fmt)
         for part, pair in enumerate(self.framebuffers):
             colour = texels[part] / 255.0 if fmt == "rgba8" else texels[part]
             for framebuffer in pair:
@@ -222,9 +221,7 @@ class StateBuffer:
         if self.fmt == "rgba8" and (texels.dtype != np.uint8):
             raise ParameterError(f"{self.quantity.name} is stored in rgba8: texels must be uint8 "
                                  f"bytes, got {texels.dtype}")
-        full = np.zeros((self.layout.width * self.layout.height, 4), dtype=numpy_dtype(self.fmt))
-        for part, texture in enumerate(self.fronts):
-            full[: self.layout.count] = texels[:, part]
+        for texture, full in zip(self.fronts, part_textures(texels, self.layout, self.fmt)):
             texture.write(full.tobytes())
 
     def read_texels(self):
@@ -239,6 +236,22 @@ class StateBuffer:
         return packing.state_decode(self.read_texels(), q.lo32, q.span32,
                                     self.fmt).astype(np.float64)
 
+
+
+def zero_texels(quantity, fmt):
+    """(parts, 4) texels of world zero clamped into the quantity's range: a state's start where
+    the scene sets none."""
+    return packing.state_encode(np.zeros((1, quantity.components)), quantity.lo32,
+                                quantity.span32, quantity.format_in(fmt))[0]
+
+
+def part_textures(texels, layout, fmt):
+    """Each part's whole texture (width * height, 4) of texels (count, parts, 4), the spare
+    texels zero."""
+    for part in range(texels.shape[1]):
+        full = np.zeros((layout.width * layout.height, 4), dtype=numpy_dtype(fmt))
+        full[: layout.count] = texels[:, part]
+        yield full
 
 
 def encode_values(quantity, layout, values, fmt):

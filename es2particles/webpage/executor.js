@@ -118,14 +118,21 @@
   }
 
   // -- the density path: the first the context offers, or the one the address asks for --------
+  function renders(type) {  // a small target of this type, made and deleted again
+    const probe = texture(4, 4, type, false);
+    const complete = target(probe) !== null;
+    gl.deleteFramebuffer(probe.framebuffer);
+    gl.deleteTexture(probe.texture);
+    return complete;
+  }
+
   const halfFloat = gl.getExtension("OES_texture_half_float");
   const offers = {
     float: () => gl.getExtension("OES_texture_float") &&
                  gl.getExtension("WEBGL_color_buffer_float") &&
-                 gl.getExtension("EXT_float_blend") &&
-                 target(texture(4, 4, gl.FLOAT, false)) !== null,
+                 gl.getExtension("EXT_float_blend") && renders(gl.FLOAT),
     half: () => halfFloat && gl.getExtension("EXT_color_buffer_half_float") &&
-                target(texture(4, 4, halfFloat.HALF_FLOAT_OES, false)) !== null,
+                renders(halfFloat.HALF_FLOAT_OES),
     bytes: () => true,
   };
   const HOW = {

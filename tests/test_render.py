@@ -10,8 +10,8 @@ from es2particles.scenes.dejong import DeJong
 SIZE = (96, 64)  # not square, not a power of two: a swapped axis or a padded row would show
 VIEW = (-2.0, -2.0, 2.0, 2.0)
 # points.vert puts each point's square on the pixel grid itself, so a rasteriser's own sub-pixel
-# snapping (1/256 of a pixel on llvmpipe, 1/16 on SwiftShader) moves none; only float32 arithmetic
-# on the way, ~1e-5 of a pixel here, leaves a point near an edge on either side.
+# snapping moves none; only float32 arithmetic on the way, ~1e-5 of a pixel here, leaves a point
+# near an edge on either side.
 SNAP = 1e-4
 
 

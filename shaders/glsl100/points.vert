@@ -14,10 +14,10 @@ void main()
 {
     vec2 p = read_position(a_texel);
     // The point's square is put with its lower-left corner on a pixel corner. A rasteriser
-    // places a vertex to its own sub-pixel precision (llvmpipe 1/256 of a pixel, SwiftShader,
-    // under Chromium's WebGL, 1/16), so an unsnapped point near a pixel's edge lands on either
-    // side; snapped, every driver lights the same pixels: for size 1, pixel floor(x) of
-    // x = (p - view origin) / view size * target size.
+    // places a vertex to its own sub-pixel precision, so an unsnapped point near a pixel's edge
+    // lands on either side (from the same positions, 0.6% of llvmpipe's density pixels and 9.4%
+    // of Chromium's differed from floor binning); snapped, every driver lights the same pixels:
+    // for size 1, pixel floor(x) of x = (p - view origin) / view size * target size.
     vec2 pixel = (p - u_view.xy) / u_view.zw * u_target_size;
     vec2 corner = floor(pixel - 0.5 * u_point_size + 0.5);
     gl_Position = vec4((corner + 0.5 * u_point_size) / u_target_size * 2.0 - 1.0, 0.0, 1.0);

@@ -33,11 +33,11 @@ from peers import (NumpyDeJong, NumpyFrame, datashader_counts, datashader_dejong
                    png_bytes)
 
 from es2particles import open_context  # noqa: E402
-from es2particles.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
+from es2particles.gl.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
 from es2particles.report.measure import timings  # noqa: E402
-from es2particles.output import encode_png  # noqa: E402
-from es2particles.pipeline import Pipeline  # noqa: E402
-from es2particles.post import Bloom  # noqa: E402
+from es2particles.io.output import encode_png  # noqa: E402
+from es2particles.frame.pipeline import Pipeline  # noqa: E402
+from es2particles.render.post import Bloom  # noqa: E402
 from es2particles.scenes.collision import Collision  # noqa: E402
 from es2particles.twins.particle import step_reference  # noqa: E402
 from es2particles.scenes.dejong import DeJong  # noqa: E402
@@ -82,7 +82,7 @@ def ours(ctx, scene_name, count, repeats):
         final = p.post.apply(density)
         rows["readback"] = timed(lambda: p.post.read(final), repeats)
         image = p.post.read(final)
-        # Ours: the encoder es2particles.output.save_image uses (unfiltered rows, level 1).
+        # Ours: the encoder es2particles.io.output.save_image uses (unfiltered rows, level 1).
         rows["PNG encode"] = timed(lambda: encode_png(image), repeats)
         rows["frame"] = timed(lambda: (p.step(1), p.render(), encode_png(p.image())), repeats)
         buffers = dict(p.sim.plan.buffers)
@@ -220,7 +220,7 @@ def dask_section(emit, quick):
 
     from distributed import Client, LocalCluster
 
-    from es2particles import cluster
+    from es2particles.cluster import tasks as cluster
 
     with LocalCluster(n_workers=1, threads_per_worker=1, dashboard_address=None,
                       silence_logs=logging.ERROR) as local, Client(local) as client:
@@ -287,7 +287,7 @@ def fountain_section(ctx, sizes, repeats, emit):
     blend modes. Sprites draw at a fixed size here (no attenuation) so the size is what is
     timed."""
     from es2particles.scenes import Fountain
-    from es2particles.sprites import SpriteRenderer
+    from es2particles.render.sprites import SpriteRenderer
     from es2particles.twins.fountain import fountain_step
 
     scene = Fountain()
@@ -376,7 +376,7 @@ def smoke_sortedness(ctx, log2n, emit, frames=45):
     """How sorted the drawn order stays when the merge passes are spread over frames (Latta
     2004): the smoke moving under its orbiting camera, after ``frames`` frames of one step."""
     from es2particles.scenes.smoke import Smoke
-    from es2particles.sort import sortedness
+    from es2particles.render.sort import sortedness
 
     emit()
     emit(f"Order of the smoke at 2^{log2n} after {frames} frames of one step, the camera orbiting "

@@ -25,8 +25,8 @@ def mark(stage):
 
 def main(argv):
     import es2particles.cli as cli
-    from es2particles import context as context_module
-    from es2particles.output import save_image
+    from es2particles.gl import context as context_module
+    from es2particles.io.output import save_image
     mark("imports")
 
     args = cli.build_parser(argv).parse_args(argv)

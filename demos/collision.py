@@ -14,9 +14,9 @@ The same still from the command line:
 from pathlib import Path
 
 from es2particles import open_context
-from es2particles.output import save_animation, save_image
-from es2particles.pipeline import Pipeline
-from es2particles.post import Bloom
+from es2particles.io.output import save_animation, save_image
+from es2particles.frame.pipeline import Pipeline
+from es2particles.render.post import Bloom
 from es2particles.scenes.collision import Collision, Physics
 
 SHAPE = "circle+box+capsule"

@@ -15,8 +15,8 @@ The same from the command line:
 from pathlib import Path
 
 from es2particles import open_context
-from es2particles.output import save_animation, save_image
-from es2particles.pipeline import Pipeline
+from es2particles.io.output import save_animation, save_image
+from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes.fountain import Fountain, FountainPhysics
 
 PHYSICS = FountainPhysics(gravity=9.81, drag=0.1, lifetime=(2.0, 2.5), floor="kill",

@@ -11,11 +11,12 @@ import importlib
 # name -> module: imported when first asked for, so `import es2particles.cli` (the program) does
 # not import numpy and the GL binding before it has parsed its command line.
 _EXPORTS = {
-    "Capabilities": "context", "Context": "context", "open_context": "context",
+    "Capabilities": "gl.context", "Context": "gl.context", "open_context": "gl.context",
     "CapabilityError": "errors", "ContextError": "errors", "Es2ParticlesError": "errors",
     "GraphError": "errors", "ParameterError": "errors", "ShaderError": "errors",
-    "Pass": "graph", "PassGraph": "graph", "Plan": "graph", "Pipeline": "pipeline",
-    "Simulation": "simulation", "Layout": "state", "Quantity": "state",
+    "Pass": "frame.graph", "PassGraph": "frame.graph", "Plan": "frame.graph",
+    "Pipeline": "frame.pipeline", "Simulation": "frame.simulation", "Layout": "frame.state",
+    "Quantity": "frame.state",
 }
 
 

@@ -86,7 +86,7 @@ def _warm_up(pipeline):
     take more than two seconds the rest is shown."""
     import time
 
-    from .progress import progress
+    from .io.progress import progress
 
     steps = pipeline.steps
     chunk = max(1, steps // 100)
@@ -161,7 +161,7 @@ def _join_negative_values(argv):
 
 
 def _info(args):
-    from .context import open_context
+    from .gl.context import open_context
 
     with open_context() as ctx:
         print(ctx.caps)
@@ -173,9 +173,9 @@ def _report(args):
 
     gc.enable()  # a long run: console_main's pause of collection is for short start-ups
 
-    from .context import open_context
+    from .gl.context import open_context
     from .errors import ParameterError
-    from .output import check_folder
+    from .io.output import check_folder
     from .report import run
 
     out = Path(args.out)
@@ -266,7 +266,7 @@ def _pipeline(ctx, args, **overrides):
     """The pipeline of the parsed arguments: only what the user typed is passed; every option
     left out takes the scene's default, resolved once in Pipeline. ``overrides``: Pipeline
     arguments set otherwise (a share of a still: its particles, its share, intensity 1)."""
-    from .pipeline import Pipeline
+    from .frame.pipeline import Pipeline
 
     scene = args.scene_class.from_args(args)
     settings = dict(particles=args.particles, size=args.size, fmt=args.format,
@@ -281,7 +281,7 @@ def _gradient(args):
 
 
 def _bloom(args):
-    from .post import Bloom
+    from .render.post import Bloom
 
     return None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
                                             args.bloom_intensity)
@@ -290,14 +290,14 @@ def _bloom(args):
 def _post(ctx, args, size, mean_density):
     """The post passes of the parsed arguments, for a density of ``mean_density`` a pixel on
     average (a shared still tone-maps its summed counts with them)."""
-    from .post import PostChain
+    from .render.post import PostChain
 
     return PostChain(ctx, size, mean_density, args.exposure, _gradient(args), _bloom(args),
                      args.scene_class.from_args(args).background())
 
 
 def _plan(args):
-    from .context import open_context
+    from .gl.context import open_context
 
     with open_context() as ctx:
         scene, pipeline = _pipeline(ctx, args)
@@ -307,8 +307,8 @@ def _plan(args):
 
 def _export(args):
     from .errors import ParameterError
-    from .export import page_plan, write_page
-    from .output import check_output
+    from .export.page import page_plan, write_page
+    from .io.output import check_output
 
     out = check_output(args.out, "--out", {".html": "HTML"})
     if args.format != "rgba8":
@@ -334,12 +334,12 @@ def _run(args):
     import gc
     import time
 
-    from .context import open_context
+    from .gl.context import open_context
     from .errors import ParameterError, check_range
-    from .output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
+    from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                          check_video, save_image, save_state)
-    from . import shares
-    from .progress import progress
+    from .cluster import shares
+    from .io.progress import progress
 
     gc.enable()  # console_main pauses collection while the modules come in
     start = time.perf_counter()
@@ -399,10 +399,10 @@ def _run(args):
 def _run_on_cluster(args, out, frames, fps, sizes):
     """Run the command on Dask (cluster.py), a still in shares of ``sizes`` particles (None:
     one pipeline); returns where it ran, for the last line."""
-    from . import cluster
+    from .cluster import tasks as cluster
     from .errors import CapabilityError, ParameterError, check_range
-    from .output import check_video
-    from .pipeline import parse_size
+    from .io.output import check_video
+    from .frame.pipeline import parse_size
 
     if args.workers is not None and args.scheduler is not None:
         raise ParameterError("give --workers (a new local cluster) or --scheduler (a running "

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from es2particles import ParameterError
-from es2particles.pipeline import Pipeline
+from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes import DeJong, Smoke
 from es2particles.scenes.attractor import jitter
 from test_render import binned

@@ -7,8 +7,8 @@ import os
 import numpy as np
 import pytest
 
-from es2particles import astc
-from es2particles.command import FullscreenCommand
+from es2particles.fields import astc
+from es2particles.gl.command import FullscreenCommand
 from es2particles.errors import ParameterError
 
 SAMPLE = """#version 100

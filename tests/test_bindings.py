@@ -7,9 +7,9 @@ import pytest
 
 from conftest import shader
 from es2particles import GraphError, ParameterError, PassGraph, ShaderError, Simulation
-from es2particles.bindings import pass_interface
-from es2particles.command import FullscreenCommand
-from es2particles.pipeline import Pipeline
+from es2particles.gl.bindings import pass_interface
+from es2particles.gl.command import FullscreenCommand
+from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes import DeJong
 
 
@@ -181,7 +181,7 @@ def test_a_pipeline_releases_everything_it_made(gl):
 
 
 def test_pipeline_takes_the_scene_defaults_resolved_once(gl):
-    from es2particles.field import CollisionField
+    from es2particles.fields.field2d import CollisionField
     from es2particles.scenes import Collision
     from es2particles.scenes.collision import RECT
 
@@ -217,9 +217,9 @@ def test_simulations_sharing_a_program_keep_their_own_uniforms(gl):
 
 
 def test_meshes_sharing_a_program_keep_their_colours(gl):
-    from es2particles.camera import Camera
+    from es2particles.render.camera import Camera
     from es2particles.scenes import Fountain
-    from es2particles.sprites import SpriteRenderer, box
+    from es2particles.render.sprites import SpriteRenderer, box
 
     scene = Fountain()
     meshes = [box((-1.0, 1.0, 0.0), (0.4, 0.4, 0.4), colour=(1.0, 0.0, 0.0)),

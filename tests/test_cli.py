@@ -90,7 +90,7 @@ def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
 
 
 def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
-    from es2particles import output
+    from es2particles.io import output
 
     def explode(self, data):
         with open(self, "wb") as handle:  # half a file, then the failure
@@ -105,7 +105,7 @@ def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("shape", [(1, 1), (3, 5), (64, 96)])
 def test_png_decodes_to_the_same_pixels(tmp_path, shape):
-    from es2particles import output
+    from es2particles.io import output
 
     pixels = np.random.default_rng(1).integers(0, 256, (*shape, 3), dtype=np.uint8)
     path = output.save_image(pixels, tmp_path / "x.png")

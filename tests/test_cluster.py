@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from es2particles import cluster, shares
+from es2particles.cluster import tasks as cluster
+from es2particles.cluster import shares
 from es2particles.cli import build_parser, main
 from es2particles.scenes.attractor import jitter
 from es2particles.scenes.dejong import DeJong

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from es2particles import ParameterError, Simulation
-from es2particles.field import Box, Circle, CollisionField
+from es2particles.fields.field2d import Box, Circle, CollisionField
 from es2particles.scenes.collision import RECT, Collision, Physics
 from es2particles.twins.particle import step_reference
 

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 from conftest import glslang
-from es2particles.export import page_plan, write_page
-from es2particles.pipeline import Pipeline
+from es2particles.export.page import page_plan, write_page
+from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes.clifford import Clifford
 from es2particles.scenes.collision import Collision
 from es2particles.scenes.dejong import DeJong

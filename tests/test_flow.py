@@ -9,8 +9,8 @@ import pytest
 
 from conftest import glslang, shader
 from es2particles import PassGraph, Simulation
-from es2particles.bindings import pass_interface
-from es2particles.shaders import expand
+from es2particles.gl.bindings import pass_interface
+from es2particles.gl.shaders import expand
 from es2particles.twins import flow
 
 EPS32 = 2.0 ** -24  # float32 unit roundoff

@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from es2particles import Simulation
-from es2particles.camera import Camera
+from es2particles.render.camera import Camera
 from es2particles.cli import main
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.sprites import SpriteRenderer, box
+from es2particles.render.sprites import SpriteRenderer, box
 from es2particles.twins.fountain import fountain_step
 
 F32 = 1e-5  # float32 arithmetic over one step, world units
@@ -148,7 +148,7 @@ def test_cli_fountain_still_and_orbit(tmp_path, capsys):
 
 
 def test_camera_paths_and_the_orthographic_projection():
-    from es2particles.camera import keyframes, orbit
+    from es2particles.render.camera import keyframes, orbit
 
     a, b = Camera(eye=(0, 2, 6)), Camera(eye=(6, 2, 0), fov=60)
     mid = keyframes([a, b], 5, 11)
@@ -164,10 +164,10 @@ def test_camera_paths_and_the_orthographic_projection():
 SPRITE_PROBE = """
 import json, numpy as np
 from es2particles import open_context, Simulation
-from es2particles.camera import Camera
+from es2particles.render.camera import Camera
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.sprites import SpriteRenderer
+from es2particles.render.sprites import SpriteRenderer
 with open_context() as ctx:
     scene = Fountain(FountainPhysics(gravity=0.0))
     with Simulation(ctx, scene.graph(), 1, fmt="rgba32f") as sim:

@@ -4,8 +4,8 @@ import numpy as np
 
 from conftest import OUT
 from masks import dilate
-from es2particles.pipeline import Pipeline
-from es2particles.post import Bloom
+from es2particles.frame.pipeline import Pipeline
+from es2particles.render.post import Bloom
 from es2particles.scenes.dejong import DeJong
 
 

@@ -55,7 +55,7 @@ def test_gravity_errors_name_the_value_typed(tmp_path, capsys):
 
 
 def test_a_write_that_fails_after_the_work_is_one_line(tmp_path, capsys, monkeypatch):
-    from es2particles import output
+    from es2particles.io import output
 
     def full_disk(*args, **kwargs):
         raise OSError(28, "No space left on device", str(tmp_path / "x.png"))
@@ -68,7 +68,7 @@ def test_a_write_that_fails_after_the_work_is_one_line(tmp_path, capsys, monkeyp
 
 
 def test_an_interrupt_is_one_line_and_leaves_no_file(tmp_path, capsys, monkeypatch):
-    from es2particles import pipeline
+    from es2particles.frame import pipeline
 
     def interrupted(self, *args, **kwargs):
         raise KeyboardInterrupt
@@ -80,7 +80,7 @@ def test_an_interrupt_is_one_line_and_leaves_no_file(tmp_path, capsys, monkeypat
 
 
 def test_progress_in_a_log_has_no_carriage_returns(capsys):
-    from es2particles.progress import progress
+    from es2particles.io.progress import progress
 
     assert list(progress(range(50), 50, "frames")) == list(range(50))
     err = capsys.readouterr().err  # pytest's capture is not a terminal
@@ -106,7 +106,7 @@ def test_sigterm_during_an_animation_leaves_no_part_file(tmp_path):
 
 
 def test_the_report_replaces_a_symlink_instead_of_writing_through_it(tmp_path):
-    from es2particles.output import write_atomic
+    from es2particles.io.output import write_atomic
 
     victim = tmp_path / "victim.txt"
     victim.write_text("keep me")
@@ -119,8 +119,8 @@ def test_the_report_replaces_a_symlink_instead_of_writing_through_it(tmp_path):
 
 def test_library_seams_raise_named_errors(gl, tmp_path):
     from es2particles import ParameterError, PassGraph, ShaderError, Simulation
-    from es2particles.output import save_animation, save_image
-    from es2particles.shaders import expand
+    from es2particles.io.output import save_animation, save_image
+    from es2particles.gl.shaders import expand
 
     binary = tmp_path / "bad.frag"
     binary.write_bytes(b"#version 100\n\xff\xfe\xfd\n")

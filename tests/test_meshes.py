@@ -9,11 +9,11 @@ import pytest
 import trimesh
 
 from es2particles import Simulation
-from es2particles.camera import Camera
+from es2particles.render.camera import Camera
 from es2particles.errors import ParameterError
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.sprites import (SpriteRenderer, box, capsule, from_triangles, model_uniform,
+from es2particles.render.sprites import (SpriteRenderer, box, capsule, from_triangles, model_uniform,
                                   sphere, torus)
 
 ON_SURFACE = 1e-9  # float64 rounding of points a few units from the origin

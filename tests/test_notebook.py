@@ -10,7 +10,7 @@ NOTEBOOK = Path(__file__).resolve().parent.parent / "demos" / "notebook.ipynb"
 
 
 def test_a_picture_and_an_animation_represent_themselves():
-    from es2particles.notebook import Animation, Picture
+    from es2particles.io.notebook import Animation, Picture
 
     picture = Picture(np.zeros((4, 6, 3), np.uint8))
     assert picture._repr_png_().startswith(b"\x89PNG") and repr(picture) == "<Picture 6x4>"

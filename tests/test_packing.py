@@ -156,7 +156,7 @@ def test_edge_list_in_numpy(x):
 
 
 def test_world_range_round_trip_and_top_of_range(gl):
-    from es2particles.state import Layout, Quantity, StateBuffer
+    from es2particles.frame.state import Layout, Quantity, StateBuffer
 
     q = Quantity("position", -2, 2)
     values = np.array([[-2, 2], [2, -2], [0, 1e-9], [2.5, -7], [np.nan, np.inf], [1.0, -1.0]])

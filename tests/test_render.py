@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from es2particles import ParameterError, Simulation
-from es2particles.render import PointRenderer
+from es2particles.render.points import PointRenderer
 from es2particles.scenes.dejong import DeJong
 
 SIZE = (96, 64)  # not square, not a power of two: a swapped axis or a padded row would show

@@ -9,7 +9,7 @@ import pytest
 
 from conftest import TEST_SHADERS, glslang, shader, wide_graph
 from es2particles import ShaderError
-from es2particles.shaders import expand, shader_root
+from es2particles.gl.shaders import expand, shader_root
 
 def variants(path):
     """The default build and one build per flag the shader tests (#ifdef / defined()), so every
@@ -58,16 +58,16 @@ def test_every_shader_is_valid_glsl_es_100(path, defines, tmp_path):
 def programs():
     """(name, frag, defines, prelude lines) of every pass the built-in scenes and the wide test
     graph build, in every format and rounding, and the renderer's vertex shader."""
-    from es2particles.bindings import pass_interface, stage_interface
-    from es2particles.field import CollisionField
+    from es2particles.gl.bindings import pass_interface, stage_interface
+    from es2particles.fields.field2d import CollisionField
     from es2particles.scenes import Clifford, Collision, DeJong
     from es2particles.scenes.collision import RECT
-    from es2particles.simulation import FORMATS
+    from es2particles.frame.simulation import FORMATS
 
     from es2particles.scenes import Fountain, Smoke
     from es2particles.scenes.fountain import FountainPhysics
     from es2particles.scenes.smoke import SmokePhysics
-    from es2particles.sort import order_defines
+    from es2particles.render.sort import order_defines
 
     graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
               "clifford": Clifford().graph(), "wide": wide_graph(),
@@ -165,7 +165,7 @@ def test_loader_errors():
 def test_shaders_are_found_from_any_working_directory(tmp_path):
     import sys
 
-    code = ("from es2particles.shaders import shader_root, expand;"
+    code = ("from es2particles.gl.shaders import shader_root, expand;"
             "print(shader_root()); expand('lib/fullscreen.vert')")
     result = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True,
                             text=True)

@@ -122,7 +122,7 @@ def test_unknown_quantity_and_format_are_clear_errors(gl):
 
 
 def test_texel_uv_names_each_particle_texel_centre_row_by_row():
-    from es2particles.state import Layout
+    from es2particles.frame.state import Layout
 
     layout = Layout.for_count(1000, 4096)  # 32 x 32 with 24 spare texels
     index = np.arange(1000)

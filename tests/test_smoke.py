@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from es2particles import ParameterError, PassGraph, Simulation
-from es2particles.camera import Camera
+from es2particles.render.camera import Camera
 from es2particles.scenes.smoke import Smoke, SmokePhysics
-from es2particles.shadow import RGBA8_UNIT, OpacityShadow, ShadowMap, light_through, opacity_map
-from es2particles.sprites import SpriteRenderer, smoke_texture
+from es2particles.render.shadow import RGBA8_UNIT, OpacityShadow, ShadowMap, light_through, opacity_map
+from es2particles.render.sprites import SpriteRenderer, smoke_texture
 from es2particles.twins import smoke as twin
 
 ALIVE = (0.0, 1000.0)  # (age, lifetime): alive through every test run, never re-emitted
@@ -399,7 +399,7 @@ def test_the_scene_end_to_end(gl):
     """A short run of the scene: the plan names the acceleration pass, the sort and the shadow
     map; the picture has smoke (light pixels above the floor) and the sphere where the twin puts
     it; tracers leave acceleration and velocity out."""
-    from es2particles.pipeline import Pipeline
+    from es2particles.frame.pipeline import Pipeline
 
     scene = Smoke()
     with Pipeline(gl, scene, particles=2 ** 12, size=(160, 160), steps=60) as p:

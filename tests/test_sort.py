@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 from conftest import glslang
-from es2particles.camera import Camera, orbit
+from es2particles.render.camera import Camera, orbit
 from es2particles.errors import ParameterError
-from es2particles.bindings import stage_interface
-from es2particles.shaders import expand
-from es2particles.sort import (DepthSorter, SortingNetwork, comparators, network_pass,
+from es2particles.gl.bindings import stage_interface
+from es2particles.gl.shaders import expand
+from es2particles.render.sort import (DepthSorter, SortingNetwork, comparators, network_pass,
                                network_sort, order_defines, schedule, sortedness)
-from es2particles.state import Layout, Quantity, StateBuffer
+from es2particles.frame.state import Layout, Quantity, StateBuffer
 
 FORMATS = ("rgba8", "rgba32f")
 COUNTS = (1, 2, 3, 1000, 4097)  # 4097: one past a power of two, 8192 slots, half padding

@@ -7,7 +7,7 @@ from es2particles import PassGraph, Simulation
 from es2particles.scenes.collision import Collision, Physics
 from es2particles.scenes.dejong import DeJong, dejong_map
 from es2particles.report.stability import free_scene, run_particles
-from es2particles.state import Layout
+from es2particles.frame.state import Layout
 
 
 @pytest.mark.parametrize("k_dt", [0.1, 1.0, 10.0, 100.0])

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from es2particles.cli import main
-from es2particles.output import AnimationWriter
+from es2particles.io.output import AnimationWriter
 
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
 

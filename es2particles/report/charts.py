@@ -32,7 +32,7 @@ def _finish(fig, ax, path, **labels):
 def _save(fig, path):
     """savefig through a random temporary name renamed onto ``path`` (a link there is
     replaced, not written through)."""
-    from ..output import write_atomic
+    from ..io.output import write_atomic
 
     write_atomic(path, lambda tmp: fig.savefig(tmp, format="png"))
 

@@ -18,9 +18,9 @@ branch dominate a maximum, and the median is the figure to compare.
 
 import numpy as np
 
-from ..astc import BLOCKS
-from ..field3d import TriangleMesh, atlas_layout
-from ..simulation import Simulation
+from ..fields.astc import BLOCKS
+from ..fields.field3d import TriangleMesh, atlas_layout
+from ..frame.simulation import Simulation
 
 SEED_3D_BLOCKS = ((3, 3, 3), (4, 3, 3), (4, 4, 3), (4, 4, 4), (5, 4, 4), (5, 5, 4), (5, 5, 5),
                   (6, 5, 5), (6, 6, 5), (6, 6, 6))

@@ -12,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import charts, measure, stability
-from ..output import write_atomic
-from ..progress import progress
+from . import charts
+from . import measure
+from . import stability
+from ..io.output import write_atomic
+from ..io.progress import progress
 
 QUICK = {"dejong_n": (10, 14, 16), "collision_n": (10, 12), "dt_k": range(4, 11),
          "horizon": 0.25, "cycles": (2 ** 14, 400), "largest": False}

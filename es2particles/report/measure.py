@@ -11,12 +11,12 @@ import time
 
 import numpy as np
 
-from ..field import CollisionField
-from ..pipeline import Pipeline
-from ..post import Bloom
+from ..fields.field2d import CollisionField
+from ..frame.pipeline import Pipeline
+from ..render.post import Bloom
 from ..scenes.collision import RECT, Collision, Physics
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
-from ..simulation import Simulation
+from ..frame.simulation import Simulation
 from ..twins.particle import step_reference
 
 

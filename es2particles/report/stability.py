@@ -8,11 +8,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..field import Box, Capsule, Circle, CollisionField
-from ..graph import PassGraph
+from ..fields.field2d import Box, Capsule, Circle, CollisionField
+from ..frame.graph import PassGraph
 from ..scenes.collision import RECT, Collision, Physics
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
-from ..simulation import Simulation
+from ..frame.simulation import Simulation
 from .measure import density_distance
 
 

@@ -17,7 +17,7 @@ import argparse
 import numpy as np
 
 from ..errors import check_range
-from ..graph import PassGraph
+from ..frame.graph import PassGraph
 from .base import Control, Defaults, Fill, Scene
 
 COEFFICIENT_LIMIT = 1e4

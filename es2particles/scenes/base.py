@@ -135,7 +135,7 @@ class Scene:
         return []
 
     def camera_at(self, frame, frames):
-        """The :class:`~es2particles.camera.Camera` of frame ``frame`` of ``frames``."""
+        """The :class:`~es2particles.render.camera.Camera` of frame ``frame`` of ``frames``."""
         raise NotImplementedError
 
     def model_at(self, step):

@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ..field import CollisionField, cell_size, parse_shape
-from ..graph import PassGraph
+from ..fields.field2d import CollisionField, cell_size, parse_shape
+from ..frame.graph import PassGraph
 from ..twins.life import LIFE_STEPS, life_range, longest_life, staggered_births
 from .base import Defaults, Scene, steady_steps
 
@@ -220,7 +220,7 @@ class Collision(Scene):
         return {"life": life, "position": np.tile(p.emitter, (count, 1))}
 
     def describe(self):
-        from ..field import memory_table
+        from ..fields.field2d import memory_table
 
         f, p = self.field, self.physics
         w, h = f.resolution

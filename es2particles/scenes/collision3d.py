@@ -15,10 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Camera, orbit
+from ..render.camera import Camera, orbit
 from ..errors import ParameterError, check_range
-from ..field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
-from ..graph import PassGraph
+from ..fields.field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
+from ..frame.graph import PassGraph
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene, parse_numbers, steady_steps
 
@@ -135,7 +135,7 @@ def rotation(axis, angle):
 
 def parse_field_format(text):
     """None for an uncompressed field format, else the ASTC block (w, h) of ``astcWxH``."""
-    from ..astc import BLOCKS
+    from ..fields.astc import BLOCKS
 
     if text in FIELD_FORMATS:
         return None
@@ -266,8 +266,8 @@ class Collision3D(Scene):
     def graph(self, max_size=None):
         """The passes; the atlas fits ``max_size`` texels a side (default the current context's
         largest texture, else 4096)."""
-        from .. import astc
-        from ..context import Context
+        from ..fields import astc
+        from ..gl.context import Context
 
         if max_size is None:
             current = Context._current
@@ -298,8 +298,8 @@ class Collision3D(Scene):
 
     def astc_missing(self):
         """None where the current context can decode ASTC and astcenc can encode it, else why."""
-        from .. import astc
-        from ..context import Context
+        from ..fields import astc
+        from ..gl.context import Context
 
         if Context._current is None:
             return "no GL context to ask"
@@ -313,7 +313,7 @@ class Collision3D(Scene):
     # -- drawing -------------------------------------------------------------------------------
 
     def meshes(self):
-        from .. import sprites
+        from ..render import sprites
 
         meshes = [sprites.floor(FLOOR_HALF, cell=0.5)]
         colour = (0.72, 0.45, 0.30)
@@ -378,7 +378,7 @@ class Collision3D(Scene):
         over a fixed run of this scene's field (see report/compression.py)."""
         from dataclasses import replace
 
-        from .. import astc
+        from ..fields import astc
         from ..report import compression
 
         missing = astc.unavailable(ctx)

@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..camera import Camera, orbit
+from ..render.camera import Camera, orbit
 from ..errors import ParameterError, check_range
-from ..graph import PassGraph
-from ..sprites import box, crate_texture, floor
+from ..frame.graph import PassGraph
+from ..render.sprites import box, crate_texture, floor
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene, steady_steps
 

@@ -13,10 +13,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..camera import Camera, orbit
+from ..render.camera import Camera, orbit
 from ..errors import ParameterError, check_range
-from ..graph import PassGraph
-from ..shadow import OpacityShadow
+from ..frame.graph import PassGraph
+from ..render.shadow import OpacityShadow
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene, parse_numbers, steady_steps
 
@@ -242,7 +242,7 @@ class Smoke(Scene):
     # -- drawing -------------------------------------------------------------------------------
 
     def meshes(self):
-        from .. import sprites
+        from ..render import sprites
 
         p = self.physics
         ball = sprites.sphere((0.0, 0.0, 0.0), p.sphere[3], colour=(0.35, 0.62, 0.36))

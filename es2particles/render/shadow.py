@@ -20,9 +20,9 @@ import moderngl
 import numpy as np
 
 from .camera import Camera
-from .context import bytes_per_texel, numpy_dtype
-from .errors import CapabilityError, ParameterError, check_range
-from .graph import format_bytes
+from ..gl.context import bytes_per_texel, numpy_dtype
+from ..errors import CapabilityError, ParameterError, check_range
+from ..frame.graph import format_bytes
 
 LAYERS = 4
 FORMATS = ("auto", "rgba32f", "rgba16f", "rgba8")
@@ -139,7 +139,7 @@ class ShadowMap:
 
     def __init__(self, ctx, settings, quantities, layout, state_format, sprite, opacity,
                  size_spread, point_size_range, growth=1.0):
-        from .render import ParticleStage
+        from .points import ParticleStage
 
         self.ctx, self.settings = ctx, settings
         self.format, self.format_note = choose_format(ctx, settings.format)

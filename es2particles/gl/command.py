@@ -2,7 +2,7 @@
 
 Every full-screen draw of the package is one of these: the simulation's passes, the post chain's
 stages and the context's format probe. A command owns its vertex array (through its component's
-:class:`~es2particles.context.Group`), gives each sampler the program really uses a texture unit
+:class:`~es2particles.gl.context.Group`), gives each sampler the program really uses a texture unit
 by name, and is strict about names, with one policy everywhere:
 
 - a uniform given to it must be active in its program (a misspelled or unused name is an error
@@ -18,7 +18,7 @@ import moderngl
 
 from .bindings import compile_checked, declared_names, generated_values, strip_comments
 from .context import ProgramValues
-from .errors import ParameterError
+from ..errors import ParameterError
 from .shaders import GENERATED, expand
 
 GL_SAMPLER_2D = 0x8B5E

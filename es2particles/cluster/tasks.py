@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 _local = threading.local()
 GROUPS_PER_WORKER = 4  # tasks a worker (share groups, runs of frames): the load evens out, and
@@ -53,7 +53,7 @@ def worker_context():
     """This worker thread's GL context, made at its first task and kept."""
     ctx = getattr(_local, "ctx", None)
     if ctx is None:
-        from .context import open_context
+        from ..gl.context import open_context
 
         device = None
         devices = int(os.environ.get("ES2PARTICLES_DEVICES", "0") or 0)
@@ -68,7 +68,7 @@ def worker_context():
 
 
 def _args(argv):
-    from .cli import build_parser
+    from ..cli import build_parser
 
     return build_parser(argv).parse_args(argv)
 
@@ -82,7 +82,7 @@ def shares_task(argv, sizes, shares):
 
 def tone_map_task(argv, total, particles):
     """PNG bytes of summed counts, tone-mapped."""
-    from .output import encode_png
+    from ..io.output import encode_png
     from .shares import tone_map
 
     return encode_png(tone_map(worker_context(), _args(argv), total, particles))
@@ -92,8 +92,8 @@ def frames_task(argv, wanted):
     """{frame: PNG bytes} of the frames ``wanted`` (ascending) of the animation of ``argv``. A
     stateful scene runs every step and frame from the start, as one process does, and encodes only
     the wanted ones; a reseeded scene draws the wanted frames alone."""
-    from .cli import _pipeline
-    from .output import encode_png
+    from ..cli import _pipeline
+    from ..io.output import encode_png
 
     ctx = worker_context()
     args = _args(argv)
@@ -152,8 +152,8 @@ def still(client, argv, out, sizes):
     particles (``shares.share_sizes``), None for one pipeline."""
     from distributed import as_completed
 
-    from .output import write_atomic
-    from .progress import progress
+    from ..io.output import write_atomic
+    from ..io.progress import progress
 
     if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
         data = client.submit(frames_task, argv, [0], pure=False).result()[0]
@@ -185,8 +185,8 @@ def animation(client, args, argv, out, fps):
     from distributed import as_completed
     from PIL import Image
 
-    from .output import AnimationWriter, check_folder, write_atomic
-    from .progress import progress
+    from ..io.output import AnimationWriter, check_folder, write_atomic
+    from ..io.progress import progress
 
     folder = out.with_name(out.name + ".frames")
     if folder.is_symlink() or (folder.exists() and not folder.is_dir()):

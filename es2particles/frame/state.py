@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .twins import pack as packing
-from .context import bytes_per_texel, numpy_dtype
-from .errors import ParameterError, check_range
+from ..twins import pack as packing
+from ..gl.context import bytes_per_texel, numpy_dtype
+from ..errors import ParameterError, check_range
 
 FORMATS = ("rgba8", "rgba16f", "rgba32f")
 AXES = "xyzw"

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 IMAGE_SUFFIXES = {".png": "PNG"}
 NAME_MAX = 255  # bytes of a file name on the file systems this runs on

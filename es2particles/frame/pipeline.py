@@ -6,9 +6,9 @@ only draws. Its :meth:`plan` prints what a frame runs and what was left out.
 
 import numpy as np
 
-from .errors import GraphError, ParameterError, check_range
-from .post import PostChain
-from .render import PointRenderer
+from ..errors import GraphError, ParameterError, check_range
+from ..render.post import PostChain
+from ..render.points import PointRenderer
 from .simulation import Simulation
 
 
@@ -117,7 +117,7 @@ class Pipeline:
             reads = {q: self.sim.plan.quantities[q] for q in scene.render_reads}
             point_size = defaults.point_size if point_size is None else point_size
             if scene.render == "sprites":  # 3D: meshes, then sprites; the image is final
-                from .sprites import SpriteRenderer
+                from ..render.sprites import SpriteRenderer
 
                 self.renderer = SpriteRenderer(ctx, reads, self.sim.layout, self.size,
                                                self.sim.fmt, scene.meshes(), point_size=point_size,
@@ -189,9 +189,9 @@ class Pipeline:
         return (self.post or self.renderer).read(self.final)
 
     def picture(self):
-        """The last rendered frame as a :class:`~es2particles.notebook.Picture`: a notebook cell
+        """The last rendered frame as a :class:`~es2particles.io.notebook.Picture`: a notebook cell
         shows it."""
-        from .notebook import Picture
+        from ..io.notebook import Picture
 
         return Picture(self.image())
 

@@ -10,10 +10,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .command import FullscreenCommand
-from .context import read_rgb
-from .errors import check_range
-from .graph import format_bytes
+from ..gl.command import FullscreenCommand
+from ..gl.context import read_rgb
+from ..errors import check_range
+from ..frame.graph import format_bytes
 from .ramps import load_ramp
 
 

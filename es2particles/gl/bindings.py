@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import GraphError, ParameterError, ShaderError
+from ..errors import GraphError, ParameterError, ShaderError
 from .shaders import GENERATED
 
 GLSL_TYPES = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
@@ -181,7 +181,7 @@ def generated_values(interface, layout):
 
 
 def pass_interface(spec, quantities, fmt, part=0):
-    """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.graph.Pass`)."""
+    """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`)."""
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     for name in spec.reads:

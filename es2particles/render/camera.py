@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import ParameterError, check_range
+from ..errors import ParameterError, check_range
 
 
 def _unit(v, name):

@@ -7,7 +7,7 @@ pixels), and every failure is one ParameterError naming the parameter.
 
 from pathlib import Path
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 MAX_PIXELS = 2 ** 26  # 8192 x 8192: far more than a ramp, a mask or a sprite needs
 

@@ -9,11 +9,11 @@ the ``count`` particles are in the buffer: spare texels are never drawn.
 import moderngl
 import numpy as np
 
-from .bindings import compile_checked, generated_values, stage_interface
-from .context import ProgramValues, bytes_per_texel
-from .errors import CapabilityError, ParameterError, check_range
-from .graph import format_bytes
-from .shaders import expand
+from ..gl.bindings import compile_checked, generated_values, stage_interface
+from ..gl.context import ProgramValues, bytes_per_texel
+from ..errors import CapabilityError, ParameterError, check_range
+from ..frame.graph import format_bytes
+from ..gl.shaders import expand
 
 # Accumulation formats in order of preference: float ones do not saturate, and one channel is a
 # quarter of the bytes to blend (r32f: 185 -> 156 ms for 2^20 points on llvmpipe).

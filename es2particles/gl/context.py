@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import CapabilityError, ContextError, ParameterError
+from ..errors import CapabilityError, ContextError, ParameterError
 from .shaders import compile_program
 
 INSTALL_HINT = (
@@ -277,7 +277,7 @@ class Context:
         return tex
 
     def compressed_texture(self, compressed):
-        """A 2D texture holding :class:`~es2particles.astc.Compressed` ASTC blocks as they are,
+        """A 2D texture holding :class:`~es2particles.fields.astc.Compressed` ASTC blocks as they are,
         NEAREST-sampled and clamped; :class:`CapabilityError` where the driver cannot take them.
 
         moderngl's ``texture`` checks data against the uncompressed size, so an owned RGBA8
@@ -285,7 +285,7 @@ class Context:
         """
         import moderngl
 
-        from . import astc  # only compressed fields need it: not imported at start-up
+        from ..fields import astc
 
         if not isinstance(compressed, astc.Compressed):
             raise ParameterError(f"compressed must be an astc.Compressed (see astc.compress), got "
@@ -496,7 +496,7 @@ def _probe_store_rule(ctx):
     Channel values are chosen between the models' answers: (10.6)/255 gives 11 under rounding and
     10 under truncation or floor(256c); (200.7)/255 gives 200 under truncation and 201 otherwise.
     """
-    from .twins.pack import store_unorm8
+    from ..twins.pack import store_unorm8
 
     colour = np.array([10.6, 200.7, 100.3, 254.9], dtype=np.float32) / np.float32(255)
     got = _draw_constant(ctx, "rgba8", colour, blends=0)[0]

@@ -18,7 +18,7 @@ from typing import Mapping, Tuple
 
 import numpy as np
 
-from .errors import GraphError, ParameterError
+from ..errors import GraphError, ParameterError
 from .state import Quantity
 
 @dataclass(frozen=True)
@@ -105,8 +105,8 @@ class Plan:
 
     def describe(self, fmt="rgba8", layout=None):
         """The plan as lines, with the draws and textures of storage format ``fmt`` and, given a
-        :class:`~es2particles.state.Layout`, the bytes of each texture."""
-        from .context import bytes_per_texel
+        :class:`~es2particles.frame.state.Layout`, the bytes of each texture."""
+        from ..gl.context import bytes_per_texel
 
         texel_count = layout.width * layout.height if layout is not None else None
         lines = [f"outputs: {', '.join(self.outputs)}", "passes, in order:"]
@@ -172,7 +172,7 @@ class PassGraph:
     def quantity(self, name, lo, hi, components=None, storage=None):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
         per component; ``components`` defaults to their length, else 2); ``storage`` pins its
-        format (see :class:`~es2particles.state.Quantity`); returns it."""
+        format (see :class:`~es2particles.frame.state.Quantity`); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
         self.quantities[name] = Quantity(name, lo, hi, components, storage)
@@ -180,10 +180,10 @@ class PassGraph:
 
     def texture(self, name, data):
         """Declare a scene texture: ``data`` is an (h, w, 4) uint8 or float32 array (a collision
-        field, a ramp), or :class:`~es2particles.astc.Compressed` blocks. The simulation uploads
+        field, a ramp), or :class:`~es2particles.fields.astc.Compressed` blocks. The simulation uploads
         it, samples it NEAREST and owns it; a pass that lists ``name`` in ``textures=`` samples it
         as ``u_<name>``."""
-        from .astc import Compressed
+        from ..fields.astc import Compressed
 
         if not (isinstance(name, str) and name.isidentifier()):
             raise ParameterError(f"texture name must be a GLSL identifier, got {name!r}")

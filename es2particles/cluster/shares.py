@@ -16,7 +16,7 @@ steps) on llvmpipe here.
 
 import numpy as np
 
-from .errors import CapabilityError, ParameterError, check_range
+from ..errors import CapabilityError, ParameterError, check_range
 
 SHARE = 2 ** 22  # particles in a share
 MAX_PARTICLES = 2 ** 36  # of a shared still: 16384 shares
@@ -44,7 +44,7 @@ def share_sizes(args):
 def share_counts(ctx, args, share, count):
     """(h, w) float32: how many samples of share ``share`` (``count`` particles) landed on each
     pixel."""
-    from .cli import _pipeline
+    from ..cli import _pipeline
 
     scene, pipeline = _pipeline(ctx, args, particles=count, share=share, intensity=1.0)
     with pipeline:
@@ -77,7 +77,7 @@ def sum_counts(ctx, args, sizes, shares):
 def tone_map(ctx, args, total, particles):
     """The (h, w, 3) uint8 picture of summed counts ``total``: times --intensity, through the
     post passes of a plain run (tone curve for ``particles`` particles, gradient map, bloom)."""
-    from .cli import _post
+    from ..cli import _post
 
     h, w = total.shape
     density = (total * float(args.intensity)).astype(np.float32)
@@ -92,7 +92,7 @@ def tone_map(ctx, args, total, particles):
 def still(ctx, args, sizes):
     """The picture of a shared still made in this process: the shares one by one (with progress
     where there are many), summed, then tone-mapped."""
-    from .progress import progress
+    from ..io.progress import progress
 
     shares = range(len(sizes))
     if len(sizes) > 8:

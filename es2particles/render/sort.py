@@ -36,11 +36,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .bindings import stage_interface
-from .command import FullscreenCommand
-from .errors import CapabilityError, ParameterError, check_range
-from .context import numpy_dtype
-from .state import FORMATS as STATE_FORMATS, Layout
+from ..gl.bindings import stage_interface
+from ..gl.command import FullscreenCommand
+from ..errors import CapabilityError, ParameterError, check_range
+from ..gl.context import numpy_dtype
+from ..frame.state import FORMATS as STATE_FORMATS, Layout
 
 FORMATS = ("rgba8", "rgba32f")
 MAX_COUNT = 2 ** 24  # every slot number and index must be an integer float32 holds exactly

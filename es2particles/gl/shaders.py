@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from .errors import ShaderError
+from ..errors import ShaderError
 
 GENERATED = "<generated>"  # the origin of the lines bindings.py writes
 
@@ -30,7 +30,7 @@ def shader_root():
     An installed package carries them as ``es2particles/_shaders/glsl100``; a source checkout (or an
     editable install) has them once, at the top-level ``shaders/glsl100``.
     """
-    here = Path(__file__).resolve().parent
+    here = Path(__file__).resolve().parent.parent  # the package's folder
     for candidate in (here / "_shaders" / "glsl100", here.parent / "shaders" / "glsl100"):
         if candidate.is_dir():
             return candidate

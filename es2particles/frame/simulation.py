@@ -7,9 +7,9 @@ sets the step number and draws, pass by pass, and swaps the ping-pong buffers at
 
 import numpy as np
 
-from .bindings import pass_interface, uniform_value
-from .command import FullscreenCommand
-from .errors import Es2ParticlesError, ParameterError, ShaderError, check_range
+from ..gl.bindings import pass_interface, uniform_value
+from ..gl.command import FullscreenCommand
+from ..errors import Es2ParticlesError, ParameterError, ShaderError, check_range
 from .state import FORMATS, Layout, StateBuffer, per_component
 
 ROUNDINGS = ("nearest", "dither")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 BUILTIN = {
     # Dark to bright, so the tone-mapped density reads as brightness whatever the hue.
@@ -29,7 +29,7 @@ def load_ramp(spec):
     from PIL import ImageColor
 
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
-        from .images import read_image
+        from ..io.images import read_image
 
         row = np.asarray(read_image(spec, "gradient", "RGB"))[0].astype(np.float64)
         if len(row) < 2:

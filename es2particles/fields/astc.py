@@ -1,7 +1,7 @@
 """ASTC LDR compression of RGBA8 images, for read-only textures such as a collision field atlas.
 
 Encoding and decoding go through the ``astcenc`` command (Debian package ``astcenc``); the GL upload
-is :meth:`Context.compressed_texture <es2particles.context.Context.compressed_texture>`. Rows keep
+is :meth:`Context.compressed_texture <es2particles.gl.context.Context.compressed_texture>`. Rows keep
 the order of the rest of the package: row 0 of an image is texture row t = 0, the first one a plain
 ``ctx.texture(data=image.tobytes())`` uploads (the tests check this on the GPU).
 """
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import CapabilityError, ParameterError
+from ..errors import CapabilityError, ParameterError
 
 EXTENSION = "GL_KHR_texture_compression_astc_ldr"
 # The 2D block footprints (width, height) and their GL_COMPRESSED_RGBA_ASTC_*_KHR formats.

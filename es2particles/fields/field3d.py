@@ -34,10 +34,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError, check_range
-from . import field as field2d
-from .field import union  # the smallest distance, with its shape's normal: any dimension
-from .twins import pack as packing
+from ..errors import ParameterError, check_range
+from . import field2d
+from .field2d import union  # the smallest distance, with its shape's normal: any dimension
+from ..twins import pack as packing
 
 ENCODINGS = ("packed", "float", "smooth")
 FAR_VOXELS = 3  # outside, distances are held up to this many voxels; beyond, "far"

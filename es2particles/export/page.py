@@ -28,16 +28,16 @@ from pathlib import Path
 
 import numpy as np
 
-from .bindings import (check_writes, generated_values, pass_interface, stage_interface,
+from ..gl.bindings import (check_writes, generated_values, pass_interface, stage_interface,
                        uniform_value)
-from .errors import CapabilityError, ParameterError, check_range
-from .pipeline import SeededRandom, check_render_reads, parse_size
-from .post import post_stages
-from .ramps import load_ramp
-from .render import point_uniforms
-from .shaders import expand
-from .simulation import check_rounding, draw_defines, fill_box
-from .state import Layout, encode_values, fill_texels, part_textures, zero_texels
+from ..errors import CapabilityError, ParameterError, check_range
+from ..frame.pipeline import SeededRandom, check_render_reads, parse_size
+from ..render.post import post_stages
+from ..render.ramps import load_ramp
+from ..render.points import point_uniforms
+from ..gl.shaders import expand
+from ..frame.simulation import check_rounding, draw_defines, fill_box
+from ..frame.state import Layout, encode_values, fill_texels, part_textures, zero_texels
 
 DENSITY_PATHS = ("float", "half", "bytes")
 # What one hit adds to a batch channel, and how many codes a full-strength hit is worth: a point
@@ -114,7 +114,7 @@ def _texels(quantity, layout, texels):
 def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensity=1.0,
               exposure=4.0, gradient="inferno", bloom=None, seed=0, rounding=None, steps=None):
     """A density scene's whole frame as JSON-ready data for the WebGL page (see the module's
-    docstring); the parameters are :class:`~es2particles.pipeline.Pipeline`'s, defaults
+    docstring); the parameters are :class:`~es2particles.frame.pipeline.Pipeline`'s, defaults
     resolved the same way. The state is RGBA8 (the ES 2.0 baseline)."""
     if scene.render != "density":
         raise CapabilityError(f"export draws density scenes (dejong, clifford, collision); "
@@ -227,7 +227,7 @@ def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensi
 
 def write_page(plan, out):
     """Write the page of ``plan`` (from :func:`page_plan`) to ``out`` (.html), atomically."""
-    from .output import write_atomic
+    from ..io.output import write_atomic
 
     # JSON inside a script element: every "<" escaped, so no "</script>" or "<!--" can close it.
     fills = {"title": _escape(f"es2particles: {plan['title']}"),

@@ -20,9 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .twins import pack as packing
-from .context import FORMAT_DTYPES, bytes_per_texel
-from .errors import ParameterError, check_range
+from ..twins import pack as packing
+from ..gl.context import FORMAT_DTYPES, bytes_per_texel
+from ..errors import ParameterError, check_range
 
 
 # --- shapes: signed distance and its gradient, float64 ----------------------------------------
@@ -127,7 +127,7 @@ def load_mask(path, resolution):
     nearest-pixel resampling kept it in one cell of every four (or none at all)."""
     from PIL import Image
 
-    from .images import read_image
+    from ..io.images import read_image
 
     image = read_image(path, "mask", mode=None)
     if "A" in image.getbands():

@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from .context import ProgramValues, read_rgb
-from .errors import CapabilityError, ParameterError, check_range
-from .render import ParticleStage
+from ..gl.context import ProgramValues, read_rgb
+from ..errors import CapabilityError, ParameterError, check_range
+from .points import ParticleStage
 
 BLENDS = ("add", "over")
 
@@ -240,7 +240,7 @@ def load_sprite(spec):
     """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc``, ``smoke`` or a PNG path."""
     if spec in SPRITES:
         return SPRITES[spec]()
-    from .images import read_image
+    from ..io.images import read_image
 
     return np.asarray(read_image(spec, f"sprite (one of {sorted(SPRITES)} or an image)"),
                       dtype=np.uint8)

@@ -33,7 +33,7 @@ def main():
         scene = Collision(SHAPE, PHYSICS)
         with Pipeline(ctx, scene, PARTICLES, SIZE, point_size=2.0, gradient="gold",
                       bloom=Bloom(threshold=0.5)) as pipeline:
-            print(pipeline.plan())
+            print(pipeline.plan)
             pipeline.warm_up()
             print("wrote", save_image(pipeline.image(), out / "collision.png"))
             frames = []

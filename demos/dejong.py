@@ -38,7 +38,7 @@ def main():
     with open_context() as ctx:
         scene = DeJong(COEFFICIENTS, reseed=RESEED, animate_to=ANIMATE_TO)
         with Pipeline(ctx, scene, PARTICLES, SIZE, gradient=GRADIENT, bloom=Bloom()) as pipeline:
-            print(pipeline.plan())
+            print(pipeline.plan)
             pipeline.warm_up()
             print("wrote", save_image(pipeline.image(), out / "dejong.png"))
             frames = []

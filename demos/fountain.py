@@ -33,7 +33,7 @@ def main():
     with open_context() as ctx:
         still = Fountain(PHYSICS, camera="fixed")
         with Pipeline(ctx, still, PARTICLES, SIZE) as pipeline:
-            print(pipeline.plan())
+            print(pipeline.plan)
             pipeline.warm_up()
             save_image(pipeline.image(), out / "fountain.png")
         moving = Fountain(PHYSICS, camera="orbit", blend="add")

@@ -33,7 +33,6 @@ def build_parser(argv=None):
 def main(argv=None):
     argv = _join_negative_values(sys.argv[1:] if argv is None else argv)
     args = build_parser(argv).parse_args(argv)
-    args.argv = argv  # a cluster's tasks parse the same command line
     restore = _terminate_as_interrupt()
     try:
         return args.handler(args) or 0
@@ -95,7 +94,7 @@ def _warm_up(pipeline):
     done = min(chunk, steps)
     if done == steps:  # nothing left to time: the GL goes on while the frame is set out
         return
-    pipeline.ctx.mgl.finish()
+    pipeline.ctx.finish()
     chunks = -(-(steps - done) // chunk)
     if (time.perf_counter() - start) * chunks <= 2.0:
         pipeline.step(steps - done)
@@ -107,7 +106,7 @@ def _warm_up(pipeline):
 def _note_sparse(pipeline):
     """A hint where a density picture will be mostly empty (--size 4000x4000 with the default
     particles lit 5% of the pixels with no word)."""
-    if pipeline.post is None:
+    if "density" not in pipeline.plan.resources:
         return
     per_pixel = pipeline.sim.count / (pipeline.size[0] * pipeline.size[1])
     if per_pixel < 0.25:
@@ -198,7 +197,8 @@ def _add_scene_commands(commands, argv):
     names = ", ".join(scenes_found)
     handlers = {"run": _run, "plan": _plan, "export": _export}
     for command, text in (("run", "simulate a scene and write an image or animation"),
-                          ("plan", "print the passes a scene runs and what it leaves out"),
+                          ("plan", "print the stages a scene's frame runs and what it leaves "
+                                   "out"),
                           ("export", "write a scene as one WebGL 1 page that runs it in a "
                                      "browser (no network)")):
         parser = commands.add_parser(command, help=f"{text} (scenes: {names})",
@@ -208,39 +208,45 @@ def _add_scene_commands(commands, argv):
             summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")
             sub = scenes.add_parser(name, help=summary, description=summary)
             _add_common_arguments(sub, command)
+            common = {action.dest for action in sub._actions}
             scene.add_arguments(sub)
-            sub.set_defaults(handler=handlers[command], scene_class=scene)
+            own = [a.dest for a in sub._actions if a.dest not in common]
+            sub.set_defaults(handler=handlers[command], scene_class=scene, scene_options=own)
 
 
 def _add_common_arguments(parser, command):
+    """The frame settings every scene takes. Each defaults to None, "not given": the scene's
+    default, or the framework's, is resolved once when the frame is planned, and a setting the
+    scene's frame does not use is refused there, naming the option."""
     add = parser.add_argument
     add("--particles", type=int, default=None,
         help="particle count (default: the scene's; 2^20 for the attractors, 2^17 for collision)")
-    add("--size", default="1024x1024", help="image size WxH (default 1024x1024)")
-    add("--format", default="rgba8", choices=["rgba8", "rgba16f", "rgba32f", "auto"],
+    add("--size", default=None, help="image size WxH (default 1024x1024)")
+    add("--format", default=None, choices=["rgba8", "rgba16f", "rgba32f", "auto"],
         help="state storage format (default rgba8: 16-bit packed; auto: the most precise one "
              "the context can render to)")
     add("--rounding", default=None, choices=["nearest", "dither"],
         help="rounding of packed state (default: dither for stateful de Jong and collision, "
              "nearest for reseeded de Jong)")
-    add("--gradient", default="inferno",
+    add("--gradient", default=None,
         help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
              "path, or 'none' to switch the gradient map off (default inferno)")
     add("--no-bloom", action="store_true", help="switch bloom off")
-    add("--bloom-threshold", type=float, default=0.2,
+    add("--bloom-threshold", type=float, default=None,
         help="bloom luminance threshold [0, 1] (default 0.2)")
-    add("--bloom-radius", type=float, default=3.0, help="bloom blur sigma [0.5, 4] (default 3)")
-    add("--bloom-intensity", type=float, default=0.8, help="bloom strength [0, 10] (default 0.8)")
-    add("--exposure", type=float, default=4.0, help="tone curve brightness (default 4)")
+    add("--bloom-radius", type=float, default=None, help="bloom blur sigma [0.5, 4] (default 3)")
+    add("--bloom-intensity", type=float, default=None,
+        help="bloom strength [0, 10] (default 0.8)")
+    add("--exposure", type=float, default=None, help="tone curve brightness (default 4)")
     add("--point-size", type=float, default=None,
         help="point diameter in pixels (default: the scene's; 1 for the attractors, 2 for "
              "collision)")
-    add("--intensity", type=float, default=1.0,
+    add("--intensity", type=float, default=None,
         help="density each particle adds, in [0, 1e6] (default 1)")
-    add("--seed", type=int, default=0, help="seed of the starting state (default 0)")
+    add("--seed", type=int, default=None, help="seed of the starting state (default 0)")
     add("--steps", type=int, default=None,
         help="simulation steps before the (first) frame (default: the scene's)")
-    add("--accumulate", type=int, default=1,
+    add("--accumulate", type=int, default=None,
         help="samples summed into each image of a density scene: this step's density and the "
              "next K-1 steps' (reseeded attractors shift their grid for each); smoother, "
              "1 / sqrt(K) the noise (default 1)")
@@ -262,47 +268,48 @@ def _add_common_arguments(parser, command):
                  "--workers does")
 
 
-def _pipeline(ctx, args, **overrides):
-    """The pipeline of the parsed arguments: only what the user typed is passed; every option
-    left out takes the scene's default, resolved once in Pipeline. ``overrides``: Pipeline
-    arguments set otherwise (a share of a still: its particles, its share, intensity 1)."""
-    from .frame.pipeline import Pipeline
-
-    scene = args.scene_class.from_args(args)
-    settings = dict(particles=args.particles, size=args.size, fmt=args.format,
-                    point_size=args.point_size, intensity=args.intensity, exposure=args.exposure,
-                    gradient=_gradient(args), bloom=_bloom(args), seed=args.seed,
-                    rounding=args.rounding, steps=args.steps, accumulate=args.accumulate)
-    return scene, Pipeline(ctx, scene, **{**settings, **overrides})
-
-
-def _gradient(args):
-    return None if args.gradient == "none" else args.gradient
-
-
-def _bloom(args):
+def run_of(args):
+    """The :class:`~es2particles.frame.run.Run` of the parsed arguments: the scene's own options,
+    and only the frame settings the user typed (the others are the scene's or the framework's
+    defaults, resolved once when the frame is planned)."""
+    from .frame.plan import FrameSettings
+    from .frame.run import Run
     from .render.post import Bloom
 
-    return None if args.no_bloom else Bloom(args.bloom_threshold, args.bloom_radius,
-                                            args.bloom_intensity)
+    settings = {"particles": args.particles, "size": args.size, "format": args.format,
+                "rounding": args.rounding, "steps": args.steps, "point_size": args.point_size,
+                "intensity": args.intensity, "exposure": args.exposure,
+                "accumulate": args.accumulate, "seed": args.seed}
+    settings = {name: value for name, value in settings.items() if value is not None}
+    if args.gradient is not None:
+        settings["gradient"] = None if args.gradient == "none" else args.gradient
+    bloom = (args.bloom_threshold, args.bloom_radius, args.bloom_intensity)
+    if args.no_bloom:
+        given = [name for name, value in zip(("--bloom-threshold", "--bloom-radius",
+                                               "--bloom-intensity"), bloom) if value is not None]
+        if given:
+            from .errors import ParameterError
 
-
-def _post(ctx, args, size, mean_density):
-    """The post passes of the parsed arguments, for a density of ``mean_density`` a pixel on
-    average (a shared still tone-maps its summed counts with them)."""
-    from .render.post import PostChain
-
-    return PostChain(ctx, size, mean_density, args.exposure, _gradient(args), _bloom(args),
-                     args.scene_class.from_args(args).background())
+            raise ParameterError(f"--no-bloom switches bloom off: leave out {', '.join(given)}")
+        settings["bloom"] = None
+    elif any(value is not None for value in bloom):
+        d = Bloom()
+        settings["bloom"] = Bloom(*(d_value if value is None else value for value, d_value in
+                                    zip(bloom, (d.threshold, d.radius, d.intensity))))
+    options = {name: getattr(args, name) for name in args.scene_options}
+    frames = dict(frames=args.frames, steps_per_frame=args.steps_per_frame, fps=args.fps) \
+        if hasattr(args, "frames") else {}
+    return Run(args.scene, options, FrameSettings(**settings), **frames)
 
 
 def _plan(args):
     from .gl.context import open_context
 
+    run = run_of(args)
     with open_context() as ctx:
-        scene, pipeline = _pipeline(ctx, args)
+        scene, pipeline = run.pipeline(ctx)
         with pipeline:
-            print(pipeline.plan())
+            print(pipeline.describe())
 
 
 def _export(args):
@@ -311,41 +318,32 @@ def _export(args):
     from .io.output import check_output
 
     out = check_output(args.out, "--out", {".html": "HTML"})
-    if args.format != "rgba8":
-        raise ParameterError(f"--format {args.format}: a page keeps its state in rgba8, the one "
-                             "format every ES 2.0 context can render to")
-    if args.accumulate != 1:
-        raise ParameterError("--accumulate: a page draws one sample per frame (leave it at 1)")
     if getattr(args, "animate_to", None) is not None:
         raise ParameterError("--animate-to: a page has no frame count to animate over; move "
                              "its sliders instead")
-    scene = args.scene_class.from_args(args)
-    plan = page_plan(scene, particles=args.particles, size=args.size,
-                     point_size=args.point_size, intensity=args.intensity,
-                     exposure=args.exposure, gradient=_gradient(args), bloom=_bloom(args),
-                     seed=args.seed, rounding=args.rounding, steps=args.steps)
+    run = run_of(args)
+    plan = page_plan(run.make_scene(), run.settings)
     write_page(plan, out)
-    print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {scene.name}, "
-          f"{plan['layout']['count']} particles, {len(plan['passes'])} pass draws a step, "
-          f"{len(plan['post'])} post stages; open it in a browser)")
+    print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "
+          f"{plan['layout']['count']} particles, {len(plan['stages'])} stages a frame; open it "
+          "in a browser)")
 
 
 def _run(args):
     import gc
     import time
 
-    from .gl.context import open_context
-    from .errors import ParameterError, check_range
-    from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
-                         check_video, save_image, save_state)
     from .cluster import shares
+    from .errors import ParameterError
+    from .gl.context import open_context
+    from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
+                            check_video, save_image, save_state)
     from .io.progress import progress
 
     gc.enable()  # console_main pauses collection while the modules come in
     start = time.perf_counter()
-    frames = int(check_range("frames", args.frames, 1, 100000, integer=True))
-    per_frame = int(check_range("steps-per-frame", args.steps_per_frame, 1, 10 ** 6, integer=True))
-    fps = check_range("fps", args.fps, 0.1, 1000)
+    run = run_of(args)
+    frames = run.frames
     out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
     if frames > MAX_IMAGE_FRAMES and out.suffix.lower() != ".mp4":
         raise ParameterError(f"frames must be at most {MAX_IMAGE_FRAMES} for {out.suffix} "
@@ -354,34 +352,32 @@ def _run(args):
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
     _note_static_animation(args, frames)
-    sizes = shares.share_sizes(args)
+    sizes = shares.share_sizes(run, save_state=args.save_state is not None)
     if args.workers is not None or args.scheduler is not None:
-        where = _run_on_cluster(args, out, frames, fps, sizes)
-        print(f"wrote {out} ({args.size}, {frames} frame(s)"
+        where = _run_on_cluster(args, run, out, sizes)
+        print(f"wrote {out} ({args.size or 'default size'}, {frames} frame(s)"
               + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
               + f") in {time.perf_counter() - start:.2f} s {where}")
         return
     with open_context() as ctx:
         if sizes is not None:
-            save_image(shares.still(ctx, args, sizes), out)
-            print(f"wrote {out} ({args.size}, {args.particles} particles in {len(sizes)} shares "
-                  f"of at most {shares.SHARE}) in {time.perf_counter() - start:.2f} s")
+            save_image(shares.still(ctx, run, sizes), out)
+            print(f"wrote {out} ({args.size or 'default size'}, {args.particles} particles in "
+                  f"{len(sizes)} shares of at most {shares.SHARE}) in "
+                  f"{time.perf_counter() - start:.2f} s")
             return
-        scene, pipeline = _pipeline(ctx, args)
+        scene, pipeline = run.pipeline(ctx)
         with pipeline:
             _note_sparse(pipeline)
-            scene.before_frame(pipeline.sim, 0, frames)
-            _warm_up(pipeline)
+            if frames > 1:
+                check_video(out, pipeline.size)  # before the frames: the extra, even sides
+            drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
             if frames == 1:
+                next(drawn)
                 save_image(pipeline.image(), out)
             else:
-                check_video(out, pipeline.size)  # before the frames: the extra, even sides
-                with AnimationWriter(out, fps) as writer:  # frames stream out: bounded memory
-                    for frame in progress(range(frames), frames, "frames"):
-                        if frame:
-                            scene.before_frame(pipeline.sim, frame, frames)
-                            pipeline.step(per_frame)
-                        pipeline.render(frame, frames)
+                with AnimationWriter(out, run.fps) as writer:  # frames stream out: bounded memory
+                    for _ in progress(drawn, frames, "frames"):
                         writer.add(pipeline.image())
                     if out.suffix.lower() != ".mp4":  # the assembly takes a while: say so
                         print(f"es2particles: assembling {frames} frames into {out}",
@@ -389,20 +385,21 @@ def _run(args):
                     writer.close()
             if state_path is not None:
                 save_state(pipeline.state(), state_path)
+            has_density = "density" in pipeline.plan.resources
             print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "
                   f"particles, {pipeline.sim.steps_done} steps, {frames} frame(s)) in "
                   f"{time.perf_counter() - start:.2f} s"
-                  + (f"; density target {pipeline.renderer.format_note}"
-                     if pipeline.post is not None else ""))
+                  + (f"; density target {pipeline.plan.resources['density'].format}"
+                     if has_density else ""))
 
 
-def _run_on_cluster(args, out, frames, fps, sizes):
-    """Run the command on Dask (cluster.py), a still in shares of ``sizes`` particles (None:
-    one pipeline); returns where it ran, for the last line."""
-    from .cluster import tasks as cluster
+def _run_on_cluster(args, run, out, sizes):
+    """Run the command on Dask (``cluster/tasks.py``), a still in shares of ``sizes`` particles
+    (None: one pipeline); returns where it ran, for the last line."""
+    from .cluster import tasks
     from .errors import CapabilityError, ParameterError, check_range
+    from .frame.plan import parse_size
     from .io.output import check_video
-    from .frame.pipeline import parse_size
 
     if args.workers is not None and args.scheduler is not None:
         raise ParameterError("give --workers (a new local cluster) or --scheduler (a running "
@@ -412,20 +409,20 @@ def _run_on_cluster(args, out, frames, fps, sizes):
     if args.save_state is not None:
         raise ParameterError("--save-state writes one process's state: leave out --workers and "
                              "--scheduler to save it")
-    missing = cluster.available()
+    missing = tasks.available()
     if missing:
         raise CapabilityError(missing)
-    if frames > 1:
-        check_video(out, parse_size(args.size, 2 ** 16))  # workers check their own limit
-    client = cluster.connect(args)
+    if run.frames > 1:
+        check_video(out, parse_size(args.size or "1024x1024", 2 ** 16))  # workers check theirs
+    client = tasks.connect(workers=args.workers, scheduler=args.scheduler)
     try:
-        count = cluster.workers(client)
-        if frames == 1:
-            cluster.still(client, args.argv, out, sizes)
+        count = tasks.workers(client)
+        if run.frames == 1:
+            tasks.still(client, run, out, sizes)
         else:
-            cluster.animation(client, args, args.argv, out, fps)
+            tasks.animation(client, run, out)
     finally:
-        cluster.close(client)
+        tasks.close(client)
     return (f"on {count} local worker(s)" if args.scheduler is None
             else f"on {count} worker(s) of {args.scheduler}")
 

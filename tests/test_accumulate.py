@@ -16,9 +16,8 @@ VIEW = DeJong().view  # the range [-2, 2]^2 and a margin
 
 def density(pipeline):
     """The density target after a render, (h * w,) float64 counts (intensity 1)."""
-    renderer = pipeline.renderer
-    assert renderer.format == "r32f"
-    return np.frombuffer(renderer.density.read(), np.float32).astype(np.float64)
+    assert pipeline.plan.resources["density"].format == "r32f"
+    return np.frombuffer(pipeline.executor.read("density"), np.float32).astype(np.float64)
 
 
 def test_stateful_accumulation_sums_the_next_steps_densities(gl):
@@ -91,5 +90,6 @@ def test_bad_accumulation_is_one_line(gl, capsys):
         code = main(["run", "dejong", "--accumulate", value, "--out", "x.png"])
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and "accumulate" in err, err
-    with pytest.raises(ParameterError, match="accumulate applies to density scenes"):
+    with pytest.raises(ParameterError, match="--accumulate: scene 'smoke' does not use this "
+                                             "setting .it draws 3D sprites"):
         Pipeline(gl, Smoke(), 64, (16, 16), accumulate=2)

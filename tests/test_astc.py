@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from es2particles.fields import astc
-from es2particles.gl.command import FullscreenCommand
+from es2particles.gl.command import DrawCommand
 from es2particles.errors import ParameterError
 
 SAMPLE = """#version 100
@@ -56,7 +56,7 @@ def sample(gl, compressed, tmp_path):
         texture = group.compressed_texture(compressed)
         target = group.texture(texture.size)
         fbo = group.framebuffer(target)
-        FullscreenCommand(group, str(frag), "astc sample").draw(fbo, {"u_source": texture})
+        DrawCommand(group, "astc sample", str(frag)).draw(fbo, {"u_source": texture})
         w, h = texture.size
         return np.frombuffer(target.read(), dtype=np.uint8).reshape(h, w, 4).copy()
     finally:

@@ -8,7 +8,8 @@ import pytest
 from conftest import shader
 from es2particles import GraphError, ParameterError, PassGraph, ShaderError, Simulation
 from es2particles.gl.bindings import pass_interface
-from es2particles.gl.command import FullscreenCommand
+from es2particles.gl.command import DrawCommand
+from es2particles.gl.device import DrawState
 from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes import DeJong
 
@@ -122,7 +123,7 @@ def test_an_undeclared_texture_is_a_graph_error():
 def test_post_stage_uniforms_follow_the_same_policy(gl):
     group = gl.group()
     try:
-        bright = FullscreenCommand(group, "post/bright.frag", "post stage bloom bright")
+        bright = DrawCommand(group, "post stage bloom bright", "post/bright.frag")
         bright.set("u_threshold", 0.5)
         with pytest.raises(ParameterError, match=r"post stage bloom bright \(post/bright.frag\): "
                                                  "uniform 'u_treshold' is given, but the shader "
@@ -141,16 +142,16 @@ def test_gl_state_is_restored_when_an_exception_passes_through(gl):
     try:
         target = group.texture((4, 4), "rgba32f")
         fbo = group.framebuffer(target)
-        constant = FullscreenCommand(group, "lib/constant.frag", "test")
+        constant = DrawCommand(group, "test", "lib/constant.frag")
         constant.set("u_colour", (0.25, 0.25, 0.25, 0.25))
         with pytest.raises(RuntimeError):
-            with gl.scope(fbo, blend="add"):
+            with gl.device.scope(fbo, DrawState(blend="add", depth_test=True, point_size=True)):
                 raise RuntimeError("between enable and disable")
-        fbo.clear(0, 0, 0, 0)
+        gl.clear(fbo, (0, 0, 0, 0))
         fbo.use()
         for _ in range(2):  # without blending, the second draw replaces the first
-            constant.vao.render()
-        value = np.frombuffer(target.read(), np.float32)[0]
+            constant.vertex_array.render()
+        value = np.frombuffer(gl.read(target), np.float32)[0]
         assert value == 0.25, "blending was left on"
     finally:
         group.release()
@@ -186,15 +187,23 @@ def test_pipeline_takes_the_scene_defaults_resolved_once(gl):
     from es2particles.scenes.collision import RECT
 
     scene = Collision(field=CollisionField(RECT, [], resolution=(8, 8)))
+    def point_size(pipeline):
+        return pipeline.plan.stage("points").uniforms["u_point_size"]
+
     with Pipeline(gl, scene, size=(16, 16)) as pipeline:
-        assert pipeline.renderer.point_size == 2.0  # once 1: the CLI alone knew the default
+        assert point_size(pipeline) == 2.0  # once 1: the CLI alone knew the default
         assert pipeline.sim.count == 2 ** 17 and pipeline.sim.rounding == "dither"
         assert pipeline.steps == scene.defaults.steps == 300
-        assert pipeline.renderer.reads == ("position", "life")
+        assert pipeline.plan.rendering.reads == ("position", "life")
     with Pipeline(gl, scene, particles=64, size=(16, 16), point_size=3.0, steps=0,
                   rounding="nearest") as pipeline:
-        assert (pipeline.renderer.point_size, pipeline.sim.count, pipeline.steps,
+        assert (point_size(pipeline), pipeline.sim.count, pipeline.steps,
                 pipeline.sim.rounding) == (3.0, 64, 0, "nearest")
+
+
+def command(sim, index=0):
+    """The draw command of a simulation's ``index``-th draw of a step."""
+    return sim.executor.commands[sim.stages[index].name]
 
 
 def test_simulations_sharing_a_program_keep_their_own_uniforms(gl):
@@ -203,7 +212,7 @@ def test_simulations_sharing_a_program_keep_their_own_uniforms(gl):
     a = Simulation(gl, drift_graph(u_delta=(0.01, 0.0)), 16)
     b = Simulation(gl, drift_graph(u_delta=(0.03, 0.0)), 4096)  # same program, other values
     try:
-        assert a.draws[0].command.program is b.draws[0].command.program
+        assert command(a).program is command(b).program
         for sim in (a, b):
             sim.upload("position", np.zeros((sim.count, 2)))
         for _ in range(10):
@@ -217,9 +226,11 @@ def test_simulations_sharing_a_program_keep_their_own_uniforms(gl):
 
 
 def test_meshes_sharing_a_program_keep_their_colours(gl):
+    from es2particles.frame.pipeline import Renderer
     from es2particles.render.camera import Camera
+    from es2particles.render.meshes import box
+    from es2particles.render.sprites import Sprites
     from es2particles.scenes import Fountain
-    from es2particles.render.sprites import SpriteRenderer, box
 
     scene = Fountain()
     meshes = [box((-1.0, 1.0, 0.0), (0.4, 0.4, 0.4), colour=(1.0, 0.0, 0.0)),
@@ -227,14 +238,10 @@ def test_meshes_sharing_a_program_keep_their_colours(gl):
     camera = Camera(eye=(0.0, 1.0, 6.0), target=(0.0, 1.0, 0.0))
     with Simulation(gl, scene.graph(), 1) as sim:
         sim.upload("life", np.array([[0.0, 0.0]]))  # dead: not drawn
-        renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
-                                  sim.layout, (128, 128), sim.fmt, meshes, light=(0, 1, 6),
-                                  background=(0, 0, 0))
-        try:
-            renderer.draw(sim.buffers, camera)
+        sprites = Sprites(meshes=meshes, light=(0, 1, 6), background=(0, 0, 0))
+        with Renderer(gl, sprites, sim, size=(128, 128), point_size=24.0) as renderer:
+            renderer.draw(camera)
             image = renderer.read().astype(int)
-        finally:
-            renderer.release()
     (lx, ly), (rx, ry) = np.round(camera.project(np.array([[-1.0, 1, 0.4], [1.0, 1, 0.4]]),
                                                  (128, 128))[0]).astype(int)
     assert image[ly, lx, 0] > 100 and image[ly, lx, 2] < 20, image[ly, lx]
@@ -257,9 +264,9 @@ uniform vec2 u_a,
 void main() { OUT(read_position(v_uv) * u_gain + u_bias + u_a + u_b); }""", reads=["position"])
     # user_pass's graph declares no uniforms: this shader declares its own four
     with Simulation(gl, g, 16, outputs=["position"]) as sim:
-        command = sim.draws[0].command
+        pass_command = command(sim)
         for name in ("u_gain", "u_bias", "u_a", "u_b"):
-            command.set(name, 1.0 if name in ("u_gain", "u_bias") else (0.0, 0.0))
+            pass_command.set(name, 1.0 if name in ("u_gain", "u_bias") else (0.0, 0.0))
         sim.step()
 
 

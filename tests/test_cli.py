@@ -40,8 +40,9 @@ def test_plan_shows_only_what_the_scene_needs(capsys):
     assert "writes velocity" not in text and "velocity: " not in text
     assert "writes acceleration" not in text and "acceleration: " not in text
     assert "dejong needs no velocity or acceleration" in text
-    assert "render: 4096 points, vertex texture fetch of position" in text
-    assert "tone map (log) + gradient map" in text
+    assert "points: points.vert + points.frag -> density" in text
+    assert "4096 points of 1 pixel, vertex texture fetch of position" in text
+    assert "tone map: post/tonemap.frag -> tone map" in text and "gradient map 'inferno'" in text
     assert "left out: bloom (switched off)" in text
     assert "bloom:" not in text
 

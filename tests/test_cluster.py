@@ -12,7 +12,7 @@ from PIL import Image
 
 from es2particles.cluster import tasks as cluster
 from es2particles.cluster import shares
-from es2particles.cli import build_parser, main
+from es2particles.cli import build_parser, main, run_of
 from es2particles.scenes.attractor import jitter
 from es2particles.scenes.dejong import DeJong
 
@@ -78,8 +78,8 @@ def test_kept_frames_are_skipped_and_the_folder_must_match(scheduler, tmp_path, 
     argv = [*ANIMATION, "--scheduler", scheduler, "--out", str(out)]
     folder = tmp_path / "anim.png.frames"
     folder.mkdir()
-    args = build_parser(argv).parse_args(argv)
-    (folder / "manifest.json").write_text(json.dumps(cluster.manifest(args), indent=1))
+    run = run_of(build_parser(argv).parse_args(argv))
+    (folder / "manifest.json").write_text(json.dumps(cluster.manifest(run), indent=1))
     grey = np.full((64, 64, 3), 128, np.uint8)
     Image.fromarray(grey).save(folder / "000002.png")
     assert main(argv) == 0
@@ -103,8 +103,8 @@ def test_shares_count_what_numpy_bins_from_the_float64_twin(gl):
     --accumulate): its counts against numpy binning of the twin's positions of that grid."""
     argv = ["run", "dejong", "--reseed", "--particles", str(2 * 64 * 64), "--size", "128x128",
             "--out", "x.png"]
-    args = build_parser(argv).parse_args(argv)
-    counts = shares.share_counts(gl, args, share=1, count=64 * 64)
+    run = run_of(build_parser(argv).parse_args(argv))
+    counts = shares.share_counts(gl, run, share=1, count=64 * 64)
     scene = DeJong(reseed=True)
     x0, y0, x1, y1 = scene.range
     centres = (np.arange(64) + 0.5 + jitter(1)[:, None]) / 64
@@ -119,7 +119,8 @@ def test_shares_count_what_numpy_bins_from_the_float64_twin(gl):
 def test_share_sizes_reach_2_to_the_34_and_say_their_limits():
     def sizes(*extra):
         argv = ["run", "dejong", *extra, "--out", "x.png"]
-        return shares.share_sizes(build_parser(argv).parse_args(argv))
+        args = build_parser(argv).parse_args(argv)
+        return shares.share_sizes(run_of(args), save_state=args.save_state is not None)
 
     assert sizes("--particles", str(shares.SHARE)) is None  # one pipeline
     big = sizes("--particles", str(2 ** 34 + 5))

@@ -9,7 +9,9 @@ from es2particles.render.camera import Camera
 from es2particles.cli import main
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.render.sprites import SpriteRenderer, box
+from es2particles.frame.pipeline import Renderer
+from es2particles.render.meshes import box
+from es2particles.render.sprites import Sprites
 from es2particles.twins.fountain import fountain_step
 
 F32 = 1e-5  # float32 arithmetic over one step, world units
@@ -61,22 +63,21 @@ def test_nothing_ends_below_the_floor(gl, floor):
     assert lowest >= 0.0
 
 
-def sprite_frame(gl, positions, camera, meshes=(), size=(256, 256), **options):
-    """Render particles at ``positions`` (alive, at rest) and return the (h, w, 3) image."""
+def sprite_frame(gl, positions, camera, meshes=(), size=(256, 256), point_size=24.0,
+                 **options):
+    """Render particles at ``positions`` (alive, at rest) as white discs (``options``: the
+    Sprites declaration's) and return the (h, w, 3) image."""
     scene = Fountain(FountainPhysics(gravity=0.0))
     n = len(positions)
     with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
         sim.upload("position", positions)
         sim.upload("life", np.stack([np.zeros(n), np.full(n, 2.4)], 1))
-        options = {"sprite": "disc", **options}
-        renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
-                                  sim.layout, size, sim.fmt, meshes, size_spread=0.0,
-                                  tint=(1, 1, 1, 0), opacity=1.0, background=(0, 0, 0), **options)
-        try:
-            renderer.draw(sim.buffers, camera)
+        sprites = Sprites(**{"sprite": "disc", "size_spread": 0.0, "tint": (1, 1, 1, 0),
+                             "opacity": 1.0, "background": (0, 0, 0), "meshes": meshes,
+                             **options})
+        with Renderer(gl, sprites, sim, size=size, point_size=point_size) as renderer:
+            renderer.draw(camera)
             return renderer.read()
-        finally:
-            renderer.release()
 
 
 CAMERA = Camera(eye=(0.5, 2.0, 6.0), target=(0.0, 1.0, 0.0), fov=50)
@@ -167,19 +168,18 @@ from es2particles import open_context, Simulation
 from es2particles.render.camera import Camera
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.render.sprites import SpriteRenderer
+from es2particles.frame.pipeline import Renderer
+from es2particles.render.sprites import Sprites
 with open_context() as ctx:
     scene = Fountain(FountainPhysics(gravity=0.0))
     with Simulation(ctx, scene.graph(), 1, fmt="rgba32f") as sim:
         sim.upload("position", np.array([[0.3, 1.2, 0.5]]))
         sim.upload("life", np.array([[0.0, 2.4]]))
-        r = SpriteRenderer(ctx, {q: sim.plan.quantities[q] for q in ("position", "life")},
-                           sim.layout, (128, 128), sim.fmt, sprite="disc", size_spread=0.0,
-                           point_size=160.0, attenuation=(1, 0, 0), tint=(1, 1, 1, 0),
-                           opacity=1.0, background=(0, 0, 0))
-        r.draw(sim.buffers, Camera(eye=(0, 2, 6), target=(0, 1, 0)))
-        image = r.read()[..., 0]
-        r.release()
+        sprites = Sprites(sprite="disc", size_spread=0.0, attenuation=(1, 0, 0),
+                          tint=(1, 1, 1, 0), opacity=1.0, background=(0, 0, 0))
+        with Renderer(ctx, sprites, sim, size=(128, 128), point_size=160.0) as r:
+            r.draw(Camera(eye=(0, 2, 6), target=(0, 1, 0)))
+            image = r.read()[..., 0]
     print(json.dumps({"profile": ctx.profile, "image": image.tolist()}))
 """
 

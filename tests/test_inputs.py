@@ -156,7 +156,7 @@ def test_a_long_warm_up_shows_progress_and_runs_every_step(capsys):
 
     class SlowPipeline:
         steps, done = 1000, 0
-        ctx = SimpleNamespace(mgl=SimpleNamespace(finish=lambda: None))
+        ctx = SimpleNamespace(finish=lambda: None)
 
         def step(self, n):
             self.done += n

@@ -13,8 +13,10 @@ from es2particles.render.camera import Camera
 from es2particles.errors import ParameterError
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
-from es2particles.render.sprites import (SpriteRenderer, box, capsule, from_triangles, model_uniform,
-                                  sphere, torus)
+from es2particles.frame.pipeline import Renderer
+from es2particles.render.meshes import (box, capsule, from_triangles, model_uniform, sphere,
+                                        torus)
+from es2particles.render.sprites import Sprites
 
 ON_SURFACE = 1e-9  # float64 rounding of points a few units from the origin
 NORMAL = 1e-6
@@ -189,14 +191,10 @@ def mesh_frame(gl, meshes, model, light=(0.0, 3.0, 6.0)):
     with Simulation(gl, scene.graph(), 1, fmt="rgba32f") as sim:
         sim.upload("position", np.array([[0.0, 1.0, 0.0]]))
         sim.upload("life", np.array([[2.4, 2.4]]))
-        renderer = SpriteRenderer(gl, {q: sim.plan.quantities[q] for q in ("position", "life")},
-                                  sim.layout, SIZE, sim.fmt, meshes, opacity=0.0,
-                                  light=light, background=(0, 0, 0))
-        try:
-            renderer.draw(sim.buffers, CAMERA, model)
+        sprites = Sprites(meshes=meshes, opacity=0.0, light=light, background=(0, 0, 0))
+        with Renderer(gl, sprites, sim, size=SIZE, point_size=24.0) as renderer:
+            renderer.draw(CAMERA, model)
             return renderer.read()
-        finally:
-            renderer.release()
 
 
 def lit_centre(channel):

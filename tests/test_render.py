@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from es2particles import ParameterError, Simulation
-from es2particles.render.points import PointRenderer
+from es2particles.frame.pipeline import Renderer
+from es2particles.render.points import Density
 from es2particles.scenes.dejong import DeJong
 
 SIZE = (96, 64)  # not square, not a power of two: a swapped axis or a padded row would show
@@ -45,18 +46,13 @@ def particles(gl):
         yield sim
 
 
-def draw(gl, sim, view=VIEW, **options):
-    renderer = PointRenderer(gl, {"position": sim.plan.quantities["position"]}, sim.layout, SIZE,
-                             view, sim.fmt, **options)
-    try:
-        target = renderer.draw(sim.buffers)
-        w, h = SIZE
-        channels = 1 if renderer.format == "r32f" else 4
-        dtype = np.uint8 if renderer.format == "rgba8" else np.float32
-        # Intensity 1: a float target holds the count; an 8-bit one holds count/255, its byte.
-        return np.frombuffer(target.read(), dtype).reshape(h * w, channels)[:, 0].astype(float)
-    finally:
-        renderer.release()
+def draw(gl, sim, view=VIEW, draw_slice=None, **settings):
+    """The density target of the particles drawn as points, (h * w,) counts of intensity 1 (a
+    float target holds the count; an 8-bit one holds count/255, its byte)."""
+    with Renderer(gl, Density(view, draw_slice=draw_slice), sim, size=SIZE, point_size=1.0,
+                  bloom=None, **settings) as renderer:
+        renderer.draw()
+        return renderer.read("density")[..., 0].reshape(-1).astype(float)
 
 
 def test_density_is_numpy_binning_of_the_decoded_positions(gl, particles):
@@ -80,5 +76,4 @@ def test_sliced_draw_gives_the_same_density_as_one_call(gl, particles, draw_slic
 def test_draw_slice_must_be_a_positive_integer(gl, particles):
     for bad in (0, -5, 2.5):
         with pytest.raises(ParameterError, match="draw_slice"):
-            PointRenderer(gl, {"position": particles.plan.quantities["position"]},
-                          particles.layout, SIZE, VIEW, particles.fmt, draw_slice=bad)
+            Density(VIEW, draw_slice=bad)

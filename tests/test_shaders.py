@@ -11,6 +11,7 @@ from conftest import TEST_SHADERS, glslang, shader, wide_graph
 from es2particles import ShaderError
 from es2particles.gl.shaders import expand, shader_root
 
+
 def variants(path):
     """The default build and one build per flag the shader tests (#ifdef / defined()), so every
     branch is compiled. Flags with values (#define NAME value) keep their defaults; the dither
@@ -55,69 +56,65 @@ def test_every_shader_is_valid_glsl_es_100(path, defines, tmp_path):
              f"{path} ({defines})")
 
 
-def programs():
-    """(name, frag, defines, prelude lines) of every pass the built-in scenes and the wide test
-    graph build, in every format and rounding, and the renderer's vertex shader."""
-    from es2particles.gl.bindings import pass_interface, stage_interface
-    from es2particles.fields.field2d import CollisionField
-    from es2particles.scenes import Clifford, Collision, DeJong
-    from es2particles.scenes.collision import RECT
-    from es2particles.frame.simulation import FORMATS
+def stage_sources(stage):
+    """(vertex, fragment) expanded sources of a plan's stage, as the executors compile them."""
+    vs = expand(stage.vertex, stage.defines,
+                stage.vertex_interface.lines if stage.vertex_interface else None)
+    fs = expand(stage.fragment, stage.defines,
+                stage.interface.lines if stage.interface else None,
+                stage.interface.epilogue if stage.interface else None)
+    return vs, fs
 
-    from es2particles.scenes import Fountain, Smoke
+
+def programs():
+    """(name, source, suffix) of every distinct program source the frame plans of the built-in
+    scenes (in variants: reseeded and stateful, tracers, sorted and not, shadowed and not, a
+    float order, fields of every encoding) and the wide test graph hold, in every state format
+    and rounding: simulation passes, points, sprites, meshes, sort key and merge, shadow map and
+    post stages alike."""
+    from es2particles.fields.field2d import CollisionField
+    from es2particles.frame.plan import FrameSettings, plan_frame, plan_graph
+    from es2particles.frame.state import FORMATS
+    from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
+    from es2particles.scenes.collision import RECT
+    from es2particles.scenes.collision3d import Physics3D
     from es2particles.scenes.fountain import FountainPhysics
     from es2particles.scenes.smoke import SmokePhysics
-    from es2particles.render.sort import order_defines
 
-    graphs = {"dejong": DeJong().graph(), "dejong-reseed": DeJong(reseed=True).graph(),
-              "clifford": Clifford().graph(), "wide": wide_graph(),
-              "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))).graph(),
-              "fountain": Fountain().graph(),
+    scenes = {"dejong": DeJong(), "dejong-reseed": DeJong(reseed=True), "clifford": Clifford(),
+              "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))),
+              "fountain": Fountain(),
               "fountain-bounce": Fountain(FountainPhysics(floor="bounce",
-                                                          emitters=((0, 0, 0), (1, 0, 1)))).graph(),
-              "smoke": Smoke().graph(), "smoke-tracers": Smoke(SmokePhysics(tau=0.0)).graph()}
-    out = []
+                                                          emitters=((0, 0, 0), (1, 0, 1)))),
+              "collision3d": Collision3D(field_resolution=16),
+              "collision3d-float": Collision3D(field_resolution=16, field_format="rgba32f"),
+              "collision3d-smooth": Collision3D(field_resolution=16,
+                                                field_format="rgba8-smooth"),
+              "collision3d-moving": Collision3D(field_resolution=16, physics=Physics3D(
+                  spin=(90.0, 0.0, 1.0, 0.0))),
+              "smoke": Smoke(), "smoke-tracers": Smoke(SmokePhysics(tau=0.0)),
+              "smoke-plain": Smoke(shadows=False, sort="off"), "smoke-spread": Smoke(sort=7)}
+    out = {}
     for fmt in FORMATS:
         for rounding in ("nearest", "dither"):
-            defines = {"STATE_DITHER": None} if rounding == "dither" else {}
-            for name, graph in graphs.items():
-                for spec, part, _ in graph.plan().draws(fmt):
-                    interface = pass_interface(spec, graph.quantities, fmt, part)
-                    out.append((f"{name}-{spec.name}-{part}-{fmt}-{rounding}", spec.frag,
-                                {**defines, **spec.defines}, (interface.lines, interface.epilogue)))
-        quantities = graphs["collision"].quantities
-        for reads in (("position",), ("position", "life")):
-            prelude = stage_interface(reads, quantities, fmt,
-                                      {"u_view": (0, 0, 1, 1), "u_point_size": 1.0,
-                                       "u_target_size": (64.0, 64.0)}).lines
-            fade = {"AGE_FADE": None} if "life" in reads else {}
-            out.append((f"points-{'-'.join(reads)}-{fmt}", "points.vert", fade, prelude))
-        sprite_uniforms = {"u_eye": (0, 0, 1), "u_size": (1, 0, 1, 64),
-                           "u_attenuation": (1, 0, 0), "u_fade": 1.0}
-        prelude = stage_interface(("position", "life"), graphs["fountain"].quantities, fmt,
-                                  sprite_uniforms).lines
-        out.append((f"sprites-{fmt}", "sprites/sprite.vert", {}, prelude))
-        # sorted (both order formats), shadowed, growing with age; and the shadow map's pass
-        for order in ("rgba8", "rgba32f"):
-            defines = {**order_defines(order, 2 ** 18), "SORTED": None, "SHADOWED": None,
-                       "GROWTH": None}
-            out.append((f"sprites-sorted-{order}-shadowed-{fmt}", "sprites/sprite.vert",
-                        defines, prelude))
-        for defines in ({}, {"GROWTH": None}):
-            out.append((f"shadow-{'-'.join(defines) or 'plain'}-{fmt}", "sprites/shadow.vert",
-                        defines, stage_interface(("position", "life"),
-                                                 graphs["fountain"].quantities, fmt).lines))
-    return out
+            plans = [(name, plan_frame(scene, FrameSettings(format=fmt, rounding=rounding,
+                                                            particles=4096, size=(64, 64))))
+                     for name, scene in scenes.items()]
+            plans.append(("wide", plan_graph(wide_graph(), 64, fmt=fmt, rounding=rounding)))
+            for name, plan in plans:
+                for stage in plan.stages:
+                    for source, suffix in zip(stage_sources(stage), (".vert", ".frag")):
+                        out.setdefault(source.text, (f"{name}-{stage.name}-{fmt}-{rounding}"
+                                                     f"{suffix}", suffix))
+    return [(name, text, suffix) for text, (name, suffix) in out.items()]
 
 
 PROGRAMS = programs()
 
 
-@pytest.mark.parametrize("name, frag, defines, prelude", PROGRAMS, ids=[p[0] for p in PROGRAMS])
-def test_every_generated_program_is_valid_glsl_es_100(name, frag, defines, prelude, tmp_path):
-    lines, epilogue = prelude if isinstance(prelude, tuple) else (prelude, None)
-    validate(glslang(), expand(frag, defines, lines, epilogue).text, Path(frag).suffix, tmp_path,
-             name)
+@pytest.mark.parametrize("name, text, suffix", PROGRAMS, ids=[p[0] for p in PROGRAMS])
+def test_every_program_of_every_plan_is_valid_glsl_es_100(name, text, suffix, tmp_path):
+    validate(glslang(), text, suffix, tmp_path, name)
 
 
 def test_includes_paste_each_file_once_and_keep_origins():

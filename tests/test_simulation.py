@@ -59,7 +59,7 @@ def test_pruned_passes_are_never_compiled_or_run(gl):
     g.add("never", shader("broken.frag"), writes="broken", reads=["position"])
     # The broken shader would raise if it were compiled; pruning must leave it out entirely.
     with Simulation(gl, g, 16, outputs=["position"]) as sim:
-        assert [d.spec.name for d in sim.draws] == ["add"]
+        assert [s.name for s in sim.stages] == ["pass 'add'"]
         assert set(sim.buffers) == {"position"}
         sim.run(2)
 

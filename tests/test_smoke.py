@@ -10,8 +10,9 @@ import pytest
 from es2particles import ParameterError, PassGraph, Simulation
 from es2particles.render.camera import Camera
 from es2particles.scenes.smoke import Smoke, SmokePhysics
-from es2particles.render.shadow import RGBA8_UNIT, OpacityShadow, ShadowMap, light_through, opacity_map
-from es2particles.render.sprites import SpriteRenderer, smoke_texture
+from es2particles.frame.pipeline import Renderer
+from es2particles.render.shadow import RGBA8_UNIT, OpacityShadow, light_through, opacity_map
+from es2particles.render.sprites import Sprites, smoke_texture
 from es2particles.twins import smoke as twin
 
 ALIVE = (0.0, 1000.0)  # (age, lifetime): alive through every test run, never re-emitted
@@ -215,19 +216,21 @@ def still(gl, points):
 
 
 def shadow_map(gl, settings, points, opacity=1.0, fmt="rgba32f"):
-    """The GPU map of one-pixel sprites (a white 1x1 sprite: each adds exactly its opacity)."""
+    """The GPU map of one-pixel sprites (a white 1x1 sprite: each adds exactly its opacity), as
+    (size, size, 4) float64 opacities (row 0 at the bottom), in opacity units."""
     from dataclasses import replace
 
+    white = np.full((1, 1, 4), 255, np.uint8)
+    sprites = Sprites(sprite=white, size_spread=0.0, attenuation=(0, 0, 1), opacity=opacity,
+                      shadow=replace(settings, format=fmt))
     with still(gl, points) as (sim, quantities):
-        white = gl.texture((1, 1), "rgba8", data=bytes([255] * 4))
-        shadow = ShadowMap(gl, replace(settings, format=fmt), quantities, sim.layout, sim.fmt,
-                           white, opacity, 0.0, gl.caps.point_size_range)
-        try:
-            shadow.draw(sim.buffers, world_size=1e-6)  # below a pixel: clamped to one pixel
-            return shadow.read()
-        finally:
-            shadow.release()
-            gl.free(white)
+        # point size 0: every sprite below a pixel, clamped to one pixel, in the map too
+        with Renderer(gl, sprites, sim, size=(16, 16), point_size=0.0) as renderer:
+            renderer.draw(CAMERA)
+            data = renderer.read("shadow map").astype(np.float64)
+    if fmt == "rgba8":
+        return data / 255.0 / RGBA8_UNIT
+    return data
 
 
 def _keep(name):
@@ -265,24 +268,22 @@ def test_rgba8_shadow_map_rounds_each_addition_and_saturates(gl):
 def sprites(gl, points, shadow, sort, opacity=1.0, size=(256, 256)):
     """The image (h, w, 3) and light map of white smoke sprites at ``points`` over black, drawn in
     the points' order or sorted, with the shadow map ``shadow`` (or none)."""
+    sprites = Sprites(sprite="smoke", size_spread=0.0, attenuation=(0, 0, 1 / 36), blend="over",
+                      tint=(1, 1, 1, 1), opacity=opacity, background=(0, 0, 0), shadow=shadow,
+                      sort=sort)
     with still(gl, points) as (sim, quantities):
-        renderer = SpriteRenderer(gl, quantities, sim.layout, size, sim.fmt, [], sprite="smoke",
-                                  point_size=40.0, size_spread=0.0, attenuation=(0, 0, 1 / 36),
-                                  blend="over", tint=(1, 1, 1, 1), opacity=opacity,
-                                  background=(0, 0, 0), shadow=shadow, sort=sort)
-        try:
-            renderer.draw(sim.buffers, CAMERA)
+        with Renderer(gl, sprites, sim, size=size, point_size=40.0) as renderer:
+            renderer.draw(CAMERA)
+            image = renderer.read().astype(float) / 255
             if shadow is None:
-                return renderer.read().astype(float) / 255, None, None
+                return image, None, None
             # the sprites' size in the map at distance 1: the world size the camera gives them
             # (40 pixels of an image 1024 high at distance 6, a 45 degree view) over the map's
             # pixels per radian
             world = 40 * 6 / (1024 / 2 / np.tan(np.radians(22.5)))
             per_radian = shadow.size / 2 / np.tan(np.radians(shadow.camera().fov / 2))
-            return (renderer.read().astype(float) / 255, renderer.shadow.read(),
-                    world * per_radian)
-        finally:
-            renderer.release()
+            light = renderer.read("shadow map").astype(np.float64)  # a float map: opacities
+            return image, light, world * per_radian
 
 
 CAMERA = Camera(eye=(0.0, 2.5, 6.0), target=(0.0, 2.5, 0.0))
@@ -404,11 +405,14 @@ def test_the_scene_end_to_end(gl):
     scene = Smoke()
     with Pipeline(gl, scene, particles=2 ** 12, size=(160, 160), steps=60) as p:
         p.warm_up()
-        plan = p.plan()
+        plan = p.describe()
         image = p.image()
         state = p.state()
     for words in ("acceleration: smoke.frag writes acceleration", "odd-even merge passes",
-                  "opacity shadow map: 4 layers", "point sprites in back to front"):
+                  "sort key: sort/key.frag -> order", "sort merge: sort/merge.frag -> order",
+                  "opacity shadow map: 4 layers", "shadow map: sprites/shadow.vert",
+                  "mesh 2: sprites/mesh.vert + sprites/mesh.frag -> image",
+                  "point sprites in back to front"):
         assert words in plan, words
     assert set(state) == {"position", "velocity", "acceleration", "life"}
     sky = image[:100].astype(float).mean(axis=2)  # above the floor's horizon
@@ -421,4 +425,4 @@ def test_the_scene_end_to_end(gl):
     assert g > r + 20 and g > b + 20  # the green sphere
     with Pipeline(gl, Smoke(SmokePhysics(tau=0.0), shadows=False, sort="off"), 256,
                   (32, 32)) as p:
-        assert "left out: pass acceleration, pass velocity" in p.plan()
+        assert "left out: pass acceleration, pass velocity" in p.describe()

@@ -8,7 +8,6 @@ import math
 import subprocess
 from pathlib import Path
 
-import moderngl
 import numpy as np
 import pytest
 
@@ -17,6 +16,7 @@ from es2particles.render.camera import Camera, orbit
 from es2particles.errors import ParameterError
 from es2particles.gl.bindings import stage_interface
 from es2particles.gl.shaders import expand
+from es2particles.gl.command import DrawCommand
 from es2particles.render.sort import (DepthSorter, SortingNetwork, comparators, network_pass,
                                network_sort, order_defines, schedule, sortedness)
 from es2particles.frame.state import Layout, Quantity, StateBuffer
@@ -293,21 +293,18 @@ def test_order_glsl_decodes_slots_in_a_vertex_shader(gl, fmt, tmp_path):
         network.load(rng.random(count))
         network.run()
         _, order = network.read()
-        program = gl.program(str(tmp_path / "decode.vert"), str(tmp_path / "decode.frag"),
-                             network.defines())
         group = gl.group()
         try:
             slots = group.buffer(network.slot_uv().tobytes())
-            vao = group.vertex_array(program, [(slots, "2f", "a_slot")])
+            decode = DrawCommand(group, "decode", str(tmp_path / "decode.frag"),
+                                 str(tmp_path / "decode.vert"), network.defines(),
+                                 vertices=[(slots, "2f", "a_slot")], primitive="points")
             target = group.texture(network.layout, "rgba32f")
             framebuffer = group.framebuffer(target)
-            framebuffer.clear(-1.0, -1.0, -1.0, -1.0)
-            network.texture.use(0)
-            program["u_order"].value = 0
-            program["u_state_size"].value = (float(state.width), float(state.height))
-            with gl.scope(framebuffer):
-                vao.render(moderngl.POINTS)
-            out = np.frombuffer(target.read(), np.float32).reshape(-1, 4)[:count]
+            gl.clear(framebuffer, (-1.0, -1.0, -1.0, -1.0))
+            decode.draw(framebuffer, {"u_order": network.texture},
+                        {"u_state_size": (float(state.width), float(state.height))})
+            out = np.frombuffer(gl.read(target), np.float32).reshape(-1, 4)[:count]
         finally:
             group.release()
     assert np.array_equal(out[:, 0], order.astype(np.float32)), "order_index"

@@ -59,7 +59,7 @@ def test_a_pass_updates_every_component_and_reads_see_the_right_step(gl, fmt):
     mass = rng.uniform(0.5, 1.0, (n, 1))
     with Simulation(gl, wide_graph(tuple(shift) + (0.0,)), n, fmt=fmt) as sim:
         # the plan: position and colour draw twice in rgba8, once in float formats
-        draws = [(d.spec.name, d.part) for d in sim.draws]
+        draws = [(s.target.resource, s.target.part) for s in sim.stages]
         parts = 2 if fmt == "rgba8" else 1
         assert draws == [("position", k) for k in range(parts)] + \
             [("colour", k) for k in range(parts)] + [("mass", 0)]

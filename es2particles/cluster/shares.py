@@ -23,73 +23,88 @@ MAX_PARTICLES = 2 ** 36  # of a shared still: 16384 shares
 EXACT = 2 ** 24  # float32 holds every whole number below this
 
 
-def share_sizes(args):
-    """The particle count of each share of the still ``args`` asks for, or None where the still
+def share_sizes(run, save_state=False):
+    """The particle count of each share of the still ``run`` asks for, or None where the still
     is one plain pipeline: an animation, a scene that is not drawn as counts, or no more than
-    ``SHARE`` particles."""
-    scene = args.scene_class
-    counted = scene.render == "density" and tuple(scene.render_reads) == ("position",)
-    if getattr(args, "frames", 1) != 1 or not counted or args.particles is None:
+    ``SHARE`` particles (or the scene's default). ``save_state``: a state file is asked for too
+    (one pipeline's, refused for a shared still)."""
+    from ..frame.plan import DEFAULT
+    from ..render.points import Density
+
+    particles = run.settings.particles
+    if run.frames != 1 or particles is DEFAULT:
         return None
-    particles = int(check_range("particles", args.particles, 1, MAX_PARTICLES, integer=True))
+    particles = int(check_range("particles", particles, 1, MAX_PARTICLES, integer=True))
     if particles <= SHARE:
         return None
-    if getattr(args, "save_state", None) is not None:
+    rendering = run.make_scene().rendering()
+    if not (isinstance(rendering, Density) and rendering.reads == ("position",)):
+        return None
+    if save_state:
         raise ParameterError(f"--save-state writes one pipeline's state, at most {SHARE} "
                              f"particles; a still of {particles} is drawn in shares")
     whole, rest = divmod(particles, SHARE)
     return [SHARE] * whole + ([rest] if rest else [])
 
 
-def share_counts(ctx, args, share, count):
+def share_counts(ctx, run, share, count):
     """(h, w) float32: how many samples of share ``share`` (``count`` particles) landed on each
     pixel."""
-    from ..cli import _pipeline
-
-    scene, pipeline = _pipeline(ctx, args, particles=count, share=share, intensity=1.0)
+    scene, pipeline = run.pipeline(ctx, particles=count, share=share, intensity=1.0)
     with pipeline:
-        if pipeline.renderer.format not in ("r32f", "rgba32f"):
+        fmt = pipeline.plan.resources["density"].format
+        if fmt not in ("r32f", "rgba32f"):
             raise CapabilityError(f"a still of more than {SHARE} particles counts them in a "
                                   f"float32 target; {ctx.caps.renderer} can blend only into "
-                                  f"{pipeline.renderer.format}")
-        scene.before_frame(pipeline.sim, 0, 1)
-        pipeline.warm_up()
+                                  f"{fmt}")
+        pipeline.begin(1)
         density = pipeline.density()
         w, h = pipeline.size
-        channels = 1 if pipeline.renderer.format == "r32f" else 4
-        counts = np.frombuffer(density.read(), np.float32).reshape(h, w, channels)[..., 0].copy()
+        channels = 1 if fmt == "r32f" else 4
+        counts = np.frombuffer(ctx.read(density), np.float32).reshape(h, w, channels)[..., 0]
+        counts = counts.copy()
     if counts.max() >= EXACT:
+        accumulate = run.settings.get("accumulate", 1)
         raise ParameterError(f"a pixel got {counts.max():.0f} samples of one share, beyond the "
                              f"2^24 a float32 count holds exactly (the attractor collapses onto "
-                             f"few pixels): lower --accumulate (now {args.accumulate})")
+                             f"few pixels): lower --accumulate (now {accumulate})")
     return counts
 
 
-def sum_counts(ctx, args, sizes, shares):
+def sum_counts(ctx, run, sizes, shares):
     """The float64 sum of the counts of ``shares`` (indices into ``sizes``), one by one."""
     total = None
     for share in shares:
-        counts = share_counts(ctx, args, share, sizes[share]).astype(np.float64)
+        counts = share_counts(ctx, run, share, sizes[share]).astype(np.float64)
         total = counts if total is None else total + counts
     return total
 
 
-def tone_map(ctx, args, total, particles):
+def tone_map(ctx, run, total, particles):
     """The (h, w, 3) uint8 picture of summed counts ``total``: times --intensity, through the
-    post passes of a plain run (tone curve for ``particles`` particles, gradient map, bloom)."""
-    from ..cli import _post
+    post stages of a plain run (tone curve for ``particles`` particles, gradient map, bloom),
+    planned and drawn as a frame whose density is the sum."""
+    from ..frame.executor import Executor
+    from ..frame.pipeline import read_rgb
+    from ..frame.plan import PlanBuilder, Resource
+    from ..render.post import Bloom, plan_post
 
     h, w = total.shape
-    density = (total * float(args.intensity)).astype(np.float32)
-    post = _post(ctx, args, (w, h), particles * args.intensity * args.accumulate / (w * h))
-    try:
-        texture = post.group.texture((w, h), "r32f", data=density.tobytes(), filter_nearest=False)
-        return post.read(post.apply(texture))
-    finally:
-        post.release()
+    settings = run.settings
+    intensity = float(settings.get("intensity", 1.0))
+    accumulate = settings.get("accumulate", 1)
+    density = (total * intensity).astype(np.float32)
+    b = PlanBuilder(run.scene, settings, ctx.caps)
+    b.resource(Resource("density", "image", (w, h), "r32f", linear=True, data=density,
+                        what="the shares' summed counts"))
+    present = plan_post(b, "density", particles * intensity * accumulate / (w * h),
+                        settings.get("exposure", 4.0), settings.get("gradient", "inferno"),
+                        settings.get("bloom", Bloom()), run.make_scene().rendering().background)
+    with Executor(ctx, b.finish(present=present)) as executor:
+        return read_rgb(ctx, executor.render())
 
 
-def still(ctx, args, sizes):
+def still(ctx, run, sizes):
     """The picture of a shared still made in this process: the shares one by one (with progress
     where there are many), summed, then tone-mapped."""
     from ..io.progress import progress
@@ -97,4 +112,4 @@ def still(ctx, args, sizes):
     shares = range(len(sizes))
     if len(sizes) > 8:
         shares = progress(shares, len(sizes), "shares", unit="share")
-    return tone_map(ctx, args, sum_counts(ctx, args, sizes, shares), sum(sizes))
+    return tone_map(ctx, run, sum_counts(ctx, run, sizes, shares), sum(sizes))

@@ -1,11 +1,12 @@
 """`es2particles run` on a Dask cluster: ``--workers N`` starts a LocalCluster of N processes,
 ``--scheduler ADDRESS`` joins a running one (``pip install "es2particles[distributed]"``).
 
-Every task gets the command line itself and parses it as the one-process command does, so a
-worker builds exactly the pipeline one process would. Each worker process holds one EGL context
-for its life (made at its first task; the EGL device ``worker number mod ES2PARTICLES_DEVICES``
-where that is set on a machine with several GPUs); start remote workers with one thread each
-(``dask worker ADDRESS --nthreads 1``): a GL context is current in one thread.
+Every task gets the run description (``frame/run.py``: the scene, its options, the frame
+settings), so a worker builds exactly the pipeline one process would; nothing here reads argv.
+Each worker process holds one EGL context for its life (made at its first task; the EGL device
+``worker number mod ES2PARTICLES_DEVICES`` where that is set on a machine with several GPUs);
+start remote workers with one thread each (``dask worker ADDRESS --nthreads 1``): a GL context
+is current in one thread.
 
 - **A still** of a counted scene with more than ``shares.SHARE`` particles: tasks each sum the
   counts of a group of consecutive shares (float64, exact) and return them; the client adds the
@@ -67,69 +68,49 @@ def worker_context():
     return ctx
 
 
-def _args(argv):
-    from ..cli import build_parser
-
-    return build_parser(argv).parse_args(argv)
-
-
-def shares_task(argv, sizes, shares):
+def shares_task(run, sizes, shares):
     """The float64 sum of the counts of ``shares`` (see shares.py)."""
     from .shares import sum_counts
 
-    return sum_counts(worker_context(), _args(argv), sizes, shares)
+    return sum_counts(worker_context(), run, sizes, shares)
 
 
-def tone_map_task(argv, total, particles):
+def tone_map_task(run, total, particles):
     """PNG bytes of summed counts, tone-mapped."""
     from ..io.output import encode_png
     from .shares import tone_map
 
-    return encode_png(tone_map(worker_context(), _args(argv), total, particles))
+    return encode_png(tone_map(worker_context(), run, total, particles))
 
 
-def frames_task(argv, wanted):
-    """{frame: PNG bytes} of the frames ``wanted`` (ascending) of the animation of ``argv``. A
-    stateful scene runs every step and frame from the start, as one process does, and encodes only
-    the wanted ones; a reseeded scene draws the wanted frames alone."""
-    from ..cli import _pipeline
+def frames_task(run, wanted):
+    """{frame: PNG bytes} of the frames ``wanted`` of ``run``: the pipeline's frame loop with
+    those frames wanted (a stateful scene runs every step and frame before them, as one process
+    does; a reseeded scene draws the wanted frames alone)."""
     from ..io.output import encode_png
 
-    ctx = worker_context()
-    args = _args(argv)
-    scene, pipeline = _pipeline(ctx, args)
-    wanted = sorted(wanted)
-    out = {}
+    scene, pipeline = run.pipeline(worker_context())
     with pipeline:
-        scene.before_frame(pipeline.sim, 0, args.frames)
-        pipeline.warm_up()
-        frames = wanted if scene.stateless else range(wanted[-1] + 1)
-        for frame in frames:
-            if frame:
-                scene.before_frame(pipeline.sim, frame, args.frames)
-                pipeline.step(args.steps_per_frame)
-            pipeline.render(frame, args.frames)
-            if frame in wanted:
-                out[frame] = encode_png(pipeline.image())
-    return out
+        return {frame: encode_png(pipeline.image())
+                for frame in pipeline.frames(run.frames, run.steps_per_frame, wanted)}
 
 
 # -- on the client -----------------------------------------------------------------------------
 
-def connect(args):
-    """A Dask client: of a new LocalCluster of ``args.workers`` single-thread processes, or of
-    the scheduler at ``args.scheduler``. The caller closes it (and the LocalCluster with it)."""
+def connect(workers=None, scheduler=None):
+    """A Dask client: of a new LocalCluster of ``workers`` single-thread processes, or of the
+    scheduler at address ``scheduler``. The caller closes it (and the LocalCluster with it)."""
     import logging
 
     from distributed import Client, LocalCluster
 
-    if args.scheduler is not None:
+    if scheduler is not None:
         try:
-            return Client(args.scheduler, timeout="20s")
+            return Client(scheduler, timeout="20s")
         except (OSError, TimeoutError, ValueError) as error:
-            raise ParameterError(f"--scheduler {args.scheduler!r}: no Dask scheduler answered "
+            raise ParameterError(f"--scheduler {scheduler!r}: no Dask scheduler answered "
                                  f"({error})") from None
-    cluster = LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True,
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)
     client = Client(cluster)
     client.cluster_to_close = cluster
@@ -147,8 +128,8 @@ def workers(client):
     return max(1, len(client.scheduler_info()["workers"]))
 
 
-def still(client, argv, out, sizes):
-    """Write the still of ``argv`` to ``out`` from the cluster; ``sizes``: its shares'
+def still(client, run, out, sizes):
+    """Write the still of ``run`` to ``out`` from the cluster; ``sizes``: its shares'
     particles (``shares.share_sizes``), None for one pipeline."""
     from distributed import as_completed
 
@@ -156,31 +137,34 @@ def still(client, argv, out, sizes):
     from ..io.progress import progress
 
     if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
-        data = client.submit(frames_task, argv, [0], pure=False).result()[0]
+        data = client.submit(frames_task, run, [0], pure=False).result()[0]
     else:
         groups = np.array_split(np.arange(len(sizes)),
                                 min(len(sizes), GROUPS_PER_WORKER * workers(client)))
-        futures = [client.submit(shares_task, argv, sizes, group.tolist(), pure=False)
+        futures = [client.submit(shares_task, run, sizes, group.tolist(), pure=False)
                    for group in groups]
         total = None
         for future in progress(as_completed(futures), len(futures), "share groups", unit="task"):
             counts = future.result()
             total = counts if total is None else total + counts  # exact: whole numbers < 2^53
             future.release()
-        data = client.submit(tone_map_task, argv, client.scatter(total), sum(sizes),
+        data = client.submit(tone_map_task, run, client.scatter(total), sum(sizes),
                              pure=False).result()
     return write_atomic(out, lambda tmp: Path(tmp).write_bytes(data))
 
 
-def manifest(args):
-    """What the frames of a run depend on: every option but where it runs and the output."""
-    skip = {"workers", "scheduler", "handler", "scene_class", "argv", "out", "save_state"}
-    options = {k: v for k, v in sorted(vars(args).items()) if k not in skip}
-    return json.loads(json.dumps(options, default=str))  # as it reads back from the file
+def manifest(run):
+    """What the frames of a run depend on: the whole run description."""
+    from dataclasses import asdict
+
+    described = {"scene": run.scene, "options": dict(sorted(run.options.items())),
+                 "settings": {k: repr(v) for k, v in asdict(run.settings).items()},
+                 "frames": run.frames, "steps_per_frame": run.steps_per_frame, "fps": run.fps}
+    return json.loads(json.dumps(described, default=str))  # as it reads back from the file
 
 
-def animation(client, args, argv, out, fps):
-    """Make the frames of ``argv`` on the cluster (those not already in ``OUT.frames/``), then
+def animation(client, run, out):
+    """Make the frames of ``run`` on the cluster (those not already in ``OUT.frames/``), then
     assemble them into ``out`` and remove the folder."""
     from distributed import as_completed
     from PIL import Image
@@ -194,7 +178,7 @@ def animation(client, args, argv, out, fps):
                              "or a file")
     check_folder(folder.parent, "--out")
     record = folder / "manifest.json"
-    wanted = manifest(args)
+    wanted = manifest(run)
     if folder.is_dir():
         kept = json.loads(record.read_text()) if record.is_file() else None
         if kept != wanted:
@@ -204,16 +188,16 @@ def animation(client, args, argv, out, fps):
     else:
         folder.mkdir()
         write_atomic(record, lambda tmp: Path(tmp).write_text(json.dumps(wanted, indent=1)))
-    frames = args.frames
+    frames = run.frames
     path = [folder / f"{frame:06d}.png" for frame in range(frames)]
     missing = [frame for frame in range(frames) if not path[frame].is_file()]
     if missing:
-        scene = args.scene_class.from_args(args)
+        scene = run.make_scene()
         # Reseeded frames need nothing before them: a few runs a worker even out the load. A
         # stateful run steps from the start, so one run a worker (each catches up alone).
-        runs = GROUPS_PER_WORKER * workers(client) if scene.stateless else workers(client)
-        runs = [r.tolist() for r in np.array_split(missing, min(len(missing), runs))]
-        futures = [client.submit(frames_task, argv, run, pure=False) for run in runs]
+        parts = GROUPS_PER_WORKER * workers(client) if scene.stateless else workers(client)
+        parts = [r.tolist() for r in np.array_split(missing, min(len(missing), parts))]
+        futures = [client.submit(frames_task, run, part, pure=False) for part in parts]
         done = progress(as_completed(futures), len(futures), "frame tasks", unit="task")
         for future in done:
             for frame, data in future.result().items():
@@ -221,7 +205,7 @@ def animation(client, args, argv, out, fps):
             future.release()
     if out.suffix.lower() != ".mp4":
         print(f"es2particles: assembling {frames} frames into {out}", file=sys.stderr)
-    with AnimationWriter(out, fps) as writer:
+    with AnimationWriter(out, run.fps) as writer:
         for frame in range(frames):
             with Image.open(path[frame]) as image:
                 writer.add(np.asarray(image.convert("RGB")))

@@ -1,23 +1,30 @@
-"""A scene as one self-contained WebGL 1 page: the same plan, run in a real OpenGL ES 2.0 context.
+"""A scene as one self-contained WebGL 1 page: its frame plan, serialised, run in a real OpenGL ES
+2.0 context.
 
-:func:`page_plan` writes a scene's whole frame as data, without GL: the state textures with their
-start texels, every pass's expanded GLSL ES 1.00 source (the very text EGL compiles, generated
-interface included) with its inputs and uniforms, the point renderer, the post stages
-(``post.post_stages``) and the page's sliders. :func:`write_page` puts that data, the executor
-(``webpage/executor.js``) and the page around it into one HTML file that needs no network.
+:func:`page_plan` makes the scene's :class:`~es2particles.frame.plan.FramePlan` for a page (the
+capabilities a WebGL 1 context states, :data:`PAGE_CAPS`; state in RGBA8, the one format every
+ES 2.0 context renders to) and writes it as data, without GL: every resource with its start
+contents (the state's start texels as the scene sets them, images, a sort order's first slots),
+the vertex data, every stage's expanded GLSL ES 1.00 sources (the very text EGL compiles,
+generated interface included), its inputs, target, GL state, uniforms and per-frame values, the
+scene's camera and motion, and its sliders. :func:`write_page` puts that data, the executor
+(``webpage/executor.js``, which runs any plan's stages in order, as the EGL executor does) and
+the page around it into one HTML file that needs no network. Mouse drag orbits a 3D page's camera
+and the wheel zooms.
 
-WebGL 1 is ES 2.0: RGBA8 is the only format it must render to, and a float target, or blending
-into one, comes only with extensions. The page sums the density in the first way its context
-offers (``DENSITY_PATHS``; ``?density=NAME`` in the page's address forces one):
+What WebGL 1 may lack is decided by the page from what its context offers, each fallback named
+on the page:
 
-- ``float``: additive points into RGBA32F (WEBGL_color_buffer_float + EXT_float_blend), as EGL;
-- ``half``: batches of points into RGBA16F (EXT_color_buffer_half_float), each batch added to an
-  exact whole count in RGBA8 (``density/add.frag``, ``lib/counts.glsl``);
-- ``bytes``: the same with RGBA8 batches, one code per hit, a quarter of each batch per channel
-  (colour masks) so a channel holds 255 hits; nothing beyond ES 2.0.
-
-A batch channel that fills to its top sets a flag in the count; the page's
-``es2particles.density()`` counts the flagged pixels.
+- the density of 2D scenes (``DENSITY_PATHS``; ``?density=NAME`` forces one): ``float``,
+  additive points into RGBA32F (WEBGL_color_buffer_float + EXT_float_blend), as EGL; ``half``,
+  batches of points into RGBA16F, each added to an exact whole count in RGBA8
+  (``density/add.frag``, ``lib/counts.glsl``); ``bytes``, the same with RGBA8 batches, one code a
+  hit, a quarter of each batch per channel (colour masks), nothing beyond ES 2.0. A batch channel
+  that fills to its top flags its pixel (``es2particles.density()`` counts them);
+- a target in a float format (the opacity shadow map) falls back to the next format the context
+  can blend into, with the stages' uniforms for that format (``fallbacks``);
+- an ASTC-compressed scene texture is sent as its blocks and as the texels they decode to: the
+  page uploads the blocks where the context offers WEBGL_compressed_texture_astc, else the texels.
 """
 
 import base64
@@ -28,16 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..gl.bindings import (check_writes, generated_values, pass_interface, stage_interface,
-                       uniform_value)
-from ..errors import CapabilityError, ParameterError, check_range
-from ..frame.pipeline import SeededRandom, check_render_reads, parse_size
-from ..render.post import post_stages
-from ..render.ramps import load_ramp
-from ..render.points import point_uniforms
+from ..errors import ParameterError
+from ..frame.plan import DEFAULT, frame_value, plan_frame
+from ..frame.state import encode_values, fill_texels, part_textures, zero_texels
+from ..gl.context import Capabilities
 from ..gl.shaders import expand
-from ..frame.simulation import check_rounding, draw_defines, fill_box
-from ..frame.state import Layout, encode_values, fill_texels, part_textures, zero_texels
 
 DENSITY_PATHS = ("float", "half", "bytes")
 # What one hit adds to a batch channel, and how many codes a full-strength hit is worth: a point
@@ -47,28 +49,18 @@ FADE_LEVELS = {"half": 64, "bytes": 8}
 # Points per batch: a quarter per channel. A bytes channel holds 255 codes, a half float one
 # 2048 exactly; a batch is a point draw plus a full-screen add, so fewer batches are faster.
 BATCH_POINTS = {"half": 2 ** 18, "bytes": 2 ** 14}
-# State and images larger than this need a context that says it can hold them; 4096 is what
-# nearly every WebGL 1 device offers (the page checks its own limit and says so).
+# What a page plans with: the sizes nearly every WebGL 1 device offers and the formats the page
+# can fall back from (the page checks its own context's limits and says what it took).
 MAX_TEXTURE_SIZE = 4096
+_FLOATS = {"rgba8": True, "rgba16f": True, "rgba32f": True, "r32f": False}
+PAGE_CAPS = Capabilities.assumed(
+    backend="webgl", renderer="a WebGL 1 page", version="WebGL 1.0 (OpenGL ES 2.0)",
+    max_texture_size=MAX_TEXTURE_SIZE, point_size_range=(1.0, 64.0), renderable=dict(_FLOATS),
+    blendable=dict(_FLOATS))
+# The frame values that depend on the camera: a page computes them from its own (mouse-driven)
+# camera, and takes the plan's numbers for the camera it starts with.
+CAMERA_VALUES = ("view_projection", "eye", "forward", "depth_range", "light_size")
 WEBPAGE = Path(__file__).resolve().parent / "webpage"
-
-
-class _Programs:
-    """The expanded sources of the page's programs, each pair once."""
-
-    def __init__(self):
-        self.sources, self._index = [], {}
-
-    def add(self, name, vertex, fragment, defines=None, vertex_prelude=None,
-            fragment_prelude=None, fragment_epilogue=None):
-        vs = expand(vertex, defines, vertex_prelude)
-        fs = expand(fragment, defines, fragment_prelude, fragment_epilogue)
-        key = (vs.text, fs.text)
-        if key not in self._index:
-            self._index[key] = len(self.sources)
-            self.sources.append({"name": name, "vertex": vs.text, "fragment": fs.text,
-                                 "files": [str(vertex), str(fragment)]})
-        return self._index[key], fs
 
 
 class _Start:
@@ -88,6 +80,8 @@ class _Start:
         return self.quantities[name]
 
     def fill_uniform(self, name, lo, hi, rng):
+        from ..frame.simulation import fill_box
+
         q = self._quantity(name)
         lo, span = fill_box(name, lo, hi, q.components)
         self.texels[name] = fill_texels(q, self.layout, lo, span, rng, "rgba8")
@@ -105,124 +99,178 @@ def _bytes(array):
     return base64.b64encode(np.ascontiguousarray(array).tobytes()).decode("ascii")
 
 
-def _texels(quantity, layout, texels):
-    """Each part's whole texture (spare texels zero) as base64."""
-    texels = np.asarray(texels, np.uint8).reshape(layout.count, quantity.parts("rgba8"), 4)
-    return [_bytes(full) for full in part_textures(texels, layout, "rgba8")]
+class _Programs:
+    """The expanded sources of the page's programs, each pair once."""
+
+    def __init__(self):
+        self.sources, self._index = [], {}
+
+    def add(self, name, vertex, fragment, defines=None, vertex_prelude=None,
+            fragment_prelude=None, fragment_epilogue=None):
+        vs = expand(vertex, defines, vertex_prelude)
+        fs = expand(fragment, defines, fragment_prelude, fragment_epilogue)
+        key = (vs.text, fs.text)
+        if key not in self._index:
+            self._index[key] = len(self.sources)
+            self.sources.append({"name": name, "vertex": vs.text, "fragment": fs.text,
+                                 "files": [str(vertex), str(fragment)]})
+        return self._index[key]
+
+    def of(self, stage, extra_defines=None):
+        return self.add(stage.name, stage.vertex, stage.fragment,
+                        {**stage.defines, **(extra_defines or {})},
+                        stage.vertex_interface.lines if stage.vertex_interface else None,
+                        stage.interface.lines if stage.interface else None,
+                        stage.interface.epilogue if stage.interface else None)
 
 
-def page_plan(scene, particles=None, size=(1024, 1024), point_size=None, intensity=1.0,
-              exposure=4.0, gradient="inferno", bloom=None, seed=0, rounding=None, steps=None):
-    """A density scene's whole frame as JSON-ready data for the WebGL page (see the module's
-    docstring); the parameters are :class:`~es2particles.frame.pipeline.Pipeline`'s, defaults
-    resolved the same way. The state is RGBA8 (the ES 2.0 baseline)."""
-    if scene.render != "density":
-        raise CapabilityError(f"export draws density scenes (dejong, clifford, collision); "
-                              f"{scene.name!r} draws 3D sprites, which the page does not have yet")
-    defaults = scene.defaults
-    size = parse_size(size, MAX_TEXTURE_SIZE)
-    seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
-    steps = int(check_range("steps", defaults.steps if steps is None else steps, 0, 10 ** 6,
-                            integer=True))
-    rounding = check_rounding(defaults.rounding if rounding is None else rounding)
-    point_size = check_range("point_size", defaults.point_size if point_size is None
-                             else point_size, 1, 64)
-    intensity = check_range("intensity", intensity, 0, 1e6)
-    graph = scene.graph()
-    check_render_reads(scene, graph)
-    plan = graph.plan(scene.render_reads)
-    layout = Layout.for_count(defaults.particles if particles is None else particles,
-                              MAX_TEXTURE_SIZE)
-    for name, q in plan.quantities.items():
-        if q.format_in("rgba8") != "rgba8":
-            raise CapabilityError(f"quantity {name!r} is pinned to {q.storage}; the page keeps "
-                                  "every quantity in rgba8")
+def page_settings(settings=None, **given):
+    """The frame settings of a page: a FrameSettings, changed by keywords (as
+    :class:`~es2particles.frame.pipeline.Pipeline` takes them), checked for what a page
+    cannot do."""
+    from ..frame.pipeline import settings_of
+
+    settings = settings_of(settings, **given)
+    if settings.format not in (DEFAULT, "rgba8"):
+        raise ParameterError(f"--format {settings.format}: a page keeps its state in rgba8, the "
+                             "one format every ES 2.0 context can render to")
+    if settings.accumulate not in (DEFAULT, 1):
+        raise ParameterError("--accumulate: a page draws one sample per frame (leave it at 1)")
+    return settings
+
+
+def page_plan(scene, settings=None, **given):
+    """The scene's whole frame as JSON-ready data for the WebGL page (see the module's
+    docstring): ``settings`` (a FrameSettings) and keywords as
+    :class:`~es2particles.frame.pipeline.Pipeline` takes them, defaults resolved the same way."""
+    from ..frame.pipeline import SeededRandom
+
+    settings = page_settings(settings, **given)
+    plan = plan_frame(scene, settings, PAGE_CAPS)
+    layout = plan.layout
     programs = _Programs()
 
-    start = _Start(plan.quantities, layout)
-    scene.initialise(start, SeededRandom(seed))
-    quantities = {}
-    for name, buffers in plan.buffers.items():
-        q = plan.quantities[name]
-        entry = {"buffers": buffers}
-        if name in start.texels:
-            entry["parts"] = _texels(q, layout, start.texels[name])
-        else:  # what StateBuffer clears to: one texel a part
-            entry["clear"] = np.asarray(zero_texels(q, "rgba8"), np.uint8).tolist()
-        quantities[name] = entry
-
-    textures = {}
-    for name, data in plan.textures.items():
-        if not isinstance(data, np.ndarray):
-            raise CapabilityError(f"scene texture {name!r} is ASTC-compressed; WebGL 1 has no "
-                                  "ASTC without an extension, and the page does not ask for it")
-        h, w = data.shape[:2]
-        kind = "bytes" if data.dtype == np.uint8 else "float"
-        textures[name] = {"width": w, "height": h, "type": kind,
-                          "data": _bytes(data.astype(np.uint8 if kind == "bytes" else np.float32))}
-
-    passes = []
-    for spec, part, _ in plan.draws("rgba8"):
-        interface = pass_interface(spec, graph.quantities, "rgba8", part)
-        stage = spec.stage(part)
-        index, source = programs.add(stage, "lib/fullscreen.vert", spec.frag,
-                                     draw_defines(spec, rounding),
-                                     fragment_prelude=interface.lines,
-                                     fragment_epilogue=interface.epilogue)
-        check_writes(source, interface, stage)
-        uniforms = generated_values(interface, layout)
-        uniforms.update({name: uniform_value(name, value, interface.uniforms[name])
-                         for name, value in spec.uniforms.items()})
-        passes.append({"name": stage, "program": index, "writes": list(interface.writes),
-                       "inputs": {s: list(v) for s, v in interface.samplers.items()},
-                       "uniforms": {k: _flat(v) for k, v in uniforms.items()}})
-
-    reads = {q: plan.quantities[q] for q in scene.render_reads}
-    own = point_uniforms(scene.view, point_size, size)
-    interface = stage_interface(tuple(reads), reads, "rgba8", own)
-    defines = {"AGE_FADE": None} if "life" in reads else {}
-    index, _ = programs.add("the point renderer", "points.vert", "points.frag", defines,
-                            vertex_prelude=interface.lines)
-    points = {"program": index, "fade": "life" in reads,
-              "inputs": {s: list(v) for s, v in interface.samplers.items()},
-              "uniforms": {k: _flat(v) for k, v in {**generated_values(interface, layout),
-                                                    **own}.items()}}
-
-    background = scene.background()
-    mean = layout.count * intensity / (size[0] * size[1])
-    post = []
-    for spec in post_stages(size, mean, exposure, gradient is not None, bloom,
-                            background is not None):
-        stage = {"name": spec.name, "size": list(spec.size), "inputs": spec.inputs,
-                 "uniforms": {k: _flat(v) for k, v in spec.uniforms.items()}}
-        stage["program"], _ = programs.add(f"post stage {spec.name}", "lib/fullscreen.vert",
-                                           spec.frag, spec.defines)
-        if spec.frag == "post/tonemap.frag":  # the variant that reads a whole count
-            stage["program_counts"], _ = programs.add(
-                f"post stage {spec.name} (counts)", "lib/fullscreen.vert", spec.frag,
-                {**spec.defines, "DENSITY_COUNTS": None})
-        post.append(stage)
-    fixed = {}
-    if gradient is not None:
-        fixed["ramp"] = {"width": 256, "height": 1, "type": "bytes", "linear": True,
-                         "data": _bytes(np.asarray(load_ramp(gradient), np.uint8))}
-    if background is not None:
-        h, w = background.shape[:2]
-        fixed["background"] = {"width": w, "height": h, "type": "bytes", "linear": True,
-                               "data": _bytes(np.asarray(background, np.uint8))}
-    add, _ = programs.add("density add", "lib/fullscreen.vert", "density/add.frag")
-    present, _ = programs.add("present", "lib/fullscreen.vert", "post/present.frag")
-
+    start = _Start({n: r.quantity for n, r in plan.resources.items() if r.kind == "state"},
+                   layout)
+    scene.initialise(start, SeededRandom(plan.settings["seed"]))
+    resources = {name: _resource(r, layout, start) for name, r in plan.resources.items()}
+    _fallbacks(plan, resources)
+    camera = plan.camera(0, 1) if plan.camera is not None else None
+    stages = []
+    for stage in plan.stages:
+        target = plan.resources[stage.target.resource]
+        aspect = target.size[0] / target.size[1]
+        entry = {"name": stage.name, "kind": stage.kind, "program": programs.of(stage),
+                 "inputs": {s: [r.resource, r.part, r.when] for s, r in stage.inputs.items()},
+                 "target": [stage.target.resource, stage.target.part],
+                 "vertices": stage.vertices, "primitive": stage.primitive, "count": stage.count,
+                 "state": asdict(stage.state), "clear": stage.clear, "step": stage.step,
+                 "uniforms": {k: _flat(v) for k, v in {**stage.generated,
+                                                       **stage.uniforms}.items()},
+                 "frame_uniforms": {k: [spec[0], *map(_json_number, spec[1:])]
+                                    for k, spec in stage.frame_uniforms.items()},
+                 "repeat": [{k: _flat(v) for k, v in r.items()} for r in stage.repeat],
+                 "per_frame": stage.per_frame}
+        # The numbers of the camera the page starts with, as EGL computes them, so the first
+        # frames are the EGL run's (the page's own float64 arithmetic may round a last bit the
+        # other way); a page whose camera was moved computes its own.
+        entry["initial"] = {k: _flat(frame_value(spec, camera, 0, PAGE_CAPS, None, aspect))
+                            for k, spec in stage.frame_uniforms.items()
+                            if spec[0] in CAMERA_VALUES and camera is not None}
+        if stage.kind == "post" and stage.fragment == "post/tonemap.frag":
+            entry["program_counts"] = programs.of(stage, {"DENSITY_COUNTS": None})
+        stages.append(entry)
+    density = None
+    if "points" in [s.kind for s in plan.stages]:
+        points = plan.stage("points")
+        density = {"paths": list(DENSITY_PATHS), "fade_levels": FADE_LEVELS,
+                   "batch": BATCH_POINTS, "fade": "AGE_FADE" in points.defines,
+                   "intensity": float(points.uniforms["u_colour"][0]),
+                   "add": programs.add("density add", "lib/fullscreen.vert", "density/add.frag")}
+    present = programs.add("present", "lib/fullscreen.vert", "post/present.frag")
+    vertices = {}
+    for name, v in plan.vertices.items():
+        entry = {"source": v.source, "count": v.count, "width": v.width, "height": v.height,
+                 "attributes": [list(a) for a in v.attributes]}
+        if v.source == "data":
+            entry["data"] = _bytes(np.asarray(v.data, np.float32))
+        vertices[name] = entry
     return {"scene": scene.name, "title": (scene.__doc__ or scene.name).strip().splitlines()[0],
             "layout": {"count": layout.count, "width": layout.width, "height": layout.height},
-            "size": list(size), "steps": steps, "seed": seed, "rounding": rounding,
-            "intensity": intensity, "quantities": quantities, "textures": textures,
-            "passes": passes, "swap": [q for q, n in plan.buffers.items() if n == 2],
-            "points": points, "post": post, "fixed": fixed,
-            "density": {"paths": list(DENSITY_PATHS), "fade_levels": FADE_LEVELS,
-                        "batch": BATCH_POINTS, "add": add},
-            "present": present, "programs": programs.sources,
-            "controls": [asdict(c) for c in scene.controls()]}
+            "size": list(plan.size), "steps": plan.steps, "seed": plan.settings["seed"],
+            "rounding": plan.rounding, "resources": resources, "vertices": vertices,
+            "stages": stages, "present": plan.present, "present_program": present,
+            "programs": programs.sources, "density": density,
+            "camera": _camera(camera), "motion": _motion(plan.motion),
+            "controls": [asdict(c) for c in scene.controls()],
+            "plan": plan.describe()}
+
+
+def _json_number(value):
+    """A frame value's argument as JSON: numbers, or lists of numbers."""
+    if np.ndim(value):
+        return [float(v) for v in np.ravel(value)]
+    return float(value)
+
+
+def _resource(r, layout, start):
+    entry = {"kind": r.kind, "width": r.size[0], "height": r.size[1], "format": r.format,
+             "parts": r.parts, "buffers": r.buffers, "swap": r.swap, "depth": r.depth,
+             "linear": r.linear}
+    if r.kind == "state":
+        q = r.quantity
+        if r.name in start.texels:
+            texels = np.asarray(start.texels[r.name], np.uint8).reshape(layout.count, r.parts, 4)
+            entry["parts_data"] = [_bytes(full) for full in part_textures(texels, layout,
+                                                                          "rgba8")]
+        else:  # what StateBuffer clears to: one texel a part
+            entry["clear"] = np.asarray(zero_texels(q, "rgba8"), np.uint8).tolist()
+        return entry
+    if r.data is None:
+        return entry
+    if hasattr(r.data, "block"):  # ASTC blocks, and the texels they decode to
+        from ..fields import astc
+
+        c = r.data
+        entry["data"] = _bytes(astc.decompress(c))
+        entry["type"] = "bytes"
+        entry["astc"] = {"block": list(c.block), "internal_format": c.internal_format,
+                         "data": _bytes(np.frombuffer(c.data, np.uint8))}
+        return entry
+    data = np.asarray(r.data)
+    entry["type"] = "bytes" if data.dtype == np.uint8 else "float"
+    entry["data"] = _bytes(data.astype(np.uint8 if entry["type"] == "bytes" else np.float32))
+    return entry
+
+
+def _fallbacks(plan, resources):
+    """A float target's fallbacks: the formats the page tries after its own, each with the
+    uniforms the stages take for it (the shadow map's opacity unit)."""
+    from ..render.shadow import map_uniforms
+
+    rendering = plan.rendering
+    shadow = getattr(rendering, "shadow", None)
+    if "shadow map" not in resources or shadow is None:
+        return
+    order = ("rgba32f", "rgba16f", "rgba8")
+    first = resources["shadow map"]["format"]
+    resources["shadow map"]["fallbacks"] = [
+        {"format": fmt, "uniforms": {k: _flat(v) for k, v in map_uniforms(
+            shadow, fmt, rendering.opacity).items() if k in ("u_shadow", "u_shadow_opacity")}}
+        for fmt in order[order.index(first):]]
+
+
+def _camera(camera):
+    if camera is None:
+        return None
+    return {"eye": list(camera.eye), "target": list(camera.target), "up": list(camera.up),
+            "fov": camera.fov, "near": camera.near, "far": camera.far}
+
+
+def _motion(motion):
+    if motion is None:
+        return None
+    return {k: _json_number(v) for k, v in asdict(motion).items()}
 
 
 def write_page(plan, out):

@@ -35,12 +35,14 @@ def encoder():
 
 
 def unavailable(ctx, encode=True):
-    """None when ASTC textures can be used on ``ctx``, else the reason in one line.
+    """None when ASTC textures can be used on ``ctx`` (a context or its capabilities), else the
+    reason in one line.
 
     ``encode=False`` asks about the upload alone (blocks made elsewhere need no encoder).
     """
-    if EXTENSION not in ctx.mgl.extensions:
-        return f"{ctx.mgl.info.get('GL_RENDERER', 'this driver')} does not list {EXTENSION}"
+    caps = getattr(ctx, "caps", ctx)  # a context, or its Capabilities
+    if EXTENSION not in caps.extensions:
+        return f"{caps.renderer} does not list {EXTENSION}"
     if encode and encoder() is None:
         return f"no ASTC encoder found ({', '.join(ENCODERS)}): {INSTALL_HINT}"
     return None

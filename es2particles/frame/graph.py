@@ -168,6 +168,7 @@ class PassGraph:
         self.quantities = {}
         self.passes = []
         self.textures = {}
+        self.notes = []  # lines for the printed plan (a fallback taken, say)
 
     def quantity(self, name, lo, hi, components=None, storage=None):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one

@@ -1,40 +1,19 @@
-"""One frame of a scene, end to end: simulation steps, point rendering, post passes, readback.
+"""A scene's frames, end to end: the frame plan made real, its start applied, and one frame loop.
 
-:class:`Pipeline` makes every GL object once (state, programs, the texel buffer, targets) and then
-only draws. Its :meth:`plan` prints what a frame runs and what was left out.
+:class:`Pipeline` plans the frame (:func:`~es2particles.frame.plan.plan_frame`), makes every GL
+object once (an :class:`~es2particles.frame.executor.Executor` of the plan), applies the scene's
+start, and then only draws. :meth:`Pipeline.frames` is the one frame loop: the command line, the
+cluster's tasks, the shares of a large still and a notebook iterate it. :class:`Renderer` draws a
+rendering declaration from a simulation someone else made (tools and tests).
 """
 
 import numpy as np
 
-from ..errors import GraphError, ParameterError, check_range
-from ..render.post import PostChain
-from ..render.points import PointRenderer
+from ..errors import ParameterError
+from .executor import Executor
+from .plan import (DEFAULT, FrameSettings, PlanBuilder, parse_size,  # noqa: F401
+                   plan_frame)
 from .simulation import Simulation
-
-
-def parse_size(text, max_size):
-    """'WxH' (or an int pair) to (w, h), each in [1, max_size]."""
-    if isinstance(text, str):
-        parts = text.lower().split("x")
-        if len(parts) != 2:
-            raise ParameterError(f"size must be WxH, e.g. 1024x1024, got {text!r}")
-        try:
-            text = tuple(int(p) for p in parts)
-        except ValueError:
-            raise ParameterError(f"size must be WxH with whole numbers, got {text!r}") from None
-    w, h = text
-    return (int(check_range("size width", w, 1, max_size, integer=True)),
-            int(check_range("size height", h, 1, max_size, integer=True)))
-
-
-def check_render_reads(scene, graph):
-    """Raise unless every quantity the scene's renderer reads is one a pass of ``graph``
-    writes: the renderer's reads are outputs of the frame's plan."""
-    for name in scene.render_reads:
-        if name not in graph.quantities or graph.writer(name) is None:
-            raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} "
-                             f"{'declares but no pass writes' if name in graph.quantities else 'does not declare'}"
-                             f" (its quantities: {', '.join(graph.quantities) or 'none'})")
 
 
 class SeededRandom:
@@ -51,85 +30,79 @@ class SeededRandom:
         return getattr(self._generator, name)
 
 
-class Pipeline:
-    """A scene's whole frame on one context: simulation, renderer and post chain, one plan.
+# Pipeline arguments whose None means "the scene's default" (for the others, gradient and bloom,
+# None switches the feature off).
+_NONE_IS_DEFAULT = ("particles", "size", "format", "rounding", "steps", "point_size",
+                    "intensity", "exposure", "accumulate", "seed")
 
-    Every parameter left as None takes the scene's default (``scene.defaults``), resolved here
-    once; the renderer's reads are outputs of the simulation's plan, so a quantity the renderer
-    needs and no pass writes is an error before any GL work.
+
+def settings_of(settings=None, **given):
+    """A :class:`FrameSettings` from ``settings`` and keyword settings (``fmt`` is ``format``;
+    None is DEFAULT except for ``gradient`` and ``bloom``, where it switches them off)."""
+    if "fmt" in given:
+        given["format"] = given.pop("fmt")
+    out = {}
+    for name, value in given.items():
+        if name not in FrameSettings.__dataclass_fields__:
+            raise ParameterError(f"unknown setting {name!r} (settings: "
+                                 f"{', '.join(FrameSettings.__dataclass_fields__)})")
+        out[name] = DEFAULT if value is None and name in _NONE_IS_DEFAULT else value
+    if settings is None:
+        return FrameSettings(**out)
+    from dataclasses import replace
+
+    return replace(settings, **out)
+
+
+class Pipeline:
+    """A scene's whole frame on one context: simulation, render and post stages, one plan.
+
+    Every setting left out takes the scene's default (``scene.defaults``) or the framework's,
+    resolved once when the plan is made; the renderer's reads are outputs of the simulation's
+    plan, so a quantity the renderer needs and no pass writes is an error before any GL work, and
+    so is a setting the scene's frame does not use.
 
     Parameters
     ----------
     ctx : Context
     scene : Scene
-    particles : int, optional
-    size : (int, int) or str
-        Image size; each side at most the context's max texture size.
-    fmt : str
-        State storage format.
-    point_size : float, optional
-    intensity, exposure : float
-        Renderer and tone-curve settings.
-    gradient : str or None
-        Gradient-map ramp, or None to switch the gradient map off.
-    bloom : Bloom or None
-        Bloom settings, or None to switch bloom off.
-    seed : int
-        Seed of the starting state: the same arguments give the same image on the same driver.
-    rounding : str, optional
-        ``nearest`` or ``dither`` for packed state.
-    steps : int, optional
-        Simulation steps before the first frame (``warm_up`` runs them).
-    accumulate : int
-        Samples summed into each image of a density scene: the particles' density after this
-        step and after each of the next ``accumulate - 1`` steps (reseeded attractors shift their
-        grid for each, ``Scene.sample_uniforms``), tone-mapped once. A smoother picture from the
-        same particles: the noise halves with each 4x the samples, down to the floor of the
-        16-bit positions' grid (README: measured).
-    share : int
-        Which share of a larger image this pipeline draws (``shares.py``): share 0 is a plain
-        run; share s > 0 starts from the seed (``seed``, s) and, reseeded, from the grid shifted
-        by samples s * accumulate onwards of the R2 sequence, so no two shares draw the same
-        particles.
+    particles, size, fmt, point_size, intensity, exposure, gradient, bloom, seed, rounding,
+    steps, accumulate, share
+        The :class:`~es2particles.frame.plan.FrameSettings` (``fmt`` is its ``format``), as
+        keywords; or ``settings``, a FrameSettings. ``gradient`` None is grey and ``bloom``
+        None is off; any other None is the default. ``accumulate``: samples summed into each
+        image of a density scene (the particles' density after this step and after each of the
+        next ``accumulate - 1`` steps; reseeded attractors shift their grid for each), tone-mapped
+        once. ``share``: which share of a larger still this pipeline draws
+        (``cluster/shares.py``): share 0 is a plain run; share s > 0 starts from the seed (seed,
+        s) and, reseeded, from the grid shifted by samples s * accumulate onwards.
     """
 
-    def __init__(self, ctx, scene, particles=None, size=(1024, 1024), fmt="rgba8",
-                 point_size=None, intensity=1.0, exposure=4.0, gradient="inferno", bloom=None,
-                 seed=0, rounding=None, steps=None, accumulate=1, share=0):
-        defaults = scene.defaults
+    def __init__(self, ctx, scene, particles=DEFAULT, size=DEFAULT, fmt=DEFAULT,
+                 point_size=DEFAULT, intensity=DEFAULT, exposure=DEFAULT, gradient=DEFAULT,
+                 bloom=DEFAULT, seed=DEFAULT, rounding=DEFAULT, steps=DEFAULT,
+                 accumulate=DEFAULT, share=None, settings=None):
+        self.executor = self.sim = None
+        given = {name: value for name, value in dict(
+            particles=particles, size=size, format=fmt, point_size=point_size,
+            intensity=intensity, exposure=exposure, gradient=gradient, bloom=bloom, seed=seed,
+            rounding=rounding, steps=steps, accumulate=accumulate).items()
+            if value is not DEFAULT}
+        if share is not None:
+            given["share"] = share
+        self.settings = settings_of(settings, **given)
         self.ctx, self.scene = ctx, scene
-        self.size = parse_size(size, ctx.caps.max_texture_size)
-        seed = int(check_range("seed", seed, 0, 2 ** 63 - 1, integer=True))
-        steps = defaults.steps if steps is None else steps
-        self.steps = int(check_range("steps", steps, 0, 10 ** 7, integer=True))
-        self.accumulate = int(check_range("accumulate", accumulate, 1, 10 ** 6, integer=True))
-        self.share = int(check_range("share", share, 0, 2 ** 40, integer=True))
-        if self.accumulate > 1 and scene.render == "sprites":
-            raise ParameterError(f"accumulate applies to density scenes; {scene.name!r} draws "
-                                 "3D sprites (leave it at 1)")
-        graph = scene.graph()
-        check_render_reads(scene, graph)
-        self.sim = self.renderer = self.post = None
+        ctx.make_current()
+        self.plan = plan_frame(scene, self.settings, ctx.caps)
+        self.size, self.steps = self.plan.size, self.plan.steps
+        self.accumulate, self.share = self.plan.accumulate, self.settings.share
+        seed = self.plan.settings["seed"]
         try:
-            self.sim = Simulation(ctx, graph, defaults.particles if particles is None else particles,
-                                  outputs=scene.render_reads, fmt=fmt,
-                                  rounding=defaults.rounding if rounding is None else rounding)
-            reads = {q: self.sim.plan.quantities[q] for q in scene.render_reads}
-            point_size = defaults.point_size if point_size is None else point_size
-            if scene.render == "sprites":  # 3D: meshes, then sprites; the image is final
-                from ..render.sprites import SpriteRenderer
-
-                self.renderer = SpriteRenderer(ctx, reads, self.sim.layout, self.size,
-                                               self.sim.fmt, scene.meshes(), point_size=point_size,
-                                               **scene.renderer_options())
-            else:
-                self.renderer = PointRenderer(ctx, reads, self.sim.layout, self.size, scene.view,
-                                              self.sim.fmt, point_size, intensity)
-                self.post = PostChain(ctx, self.size,
-                                      self.renderer.mean_density * self.accumulate, exposure,
-                                      gradient, bloom, scene.background())
-            scene.initialise(self.sim, SeededRandom(seed if not share else (seed, share)))
-            if share:
+            self.executor = Executor(ctx, self.plan)
+            self.sim = Simulation.over(self.executor)
+            scene.initialise(self.sim, SeededRandom(seed if not self.share
+                                                    else (seed, self.share)))
+            if self.share:
                 self._sample(0, step=False)  # the share's own first grid
         except Exception:
             self.release()
@@ -138,6 +111,41 @@ class Pipeline:
         self._ordered = not scene.positions_repeat
         self._drawn = False  # a first frame was drawn: ordering pays from the second one on
 
+    # -- the frame loop ----------------------------------------------------------------------------
+
+    def frames(self, frames=1, steps_per_frame=1, wanted=None, warm_up=None):
+        """The one frame loop: set the scene's uniforms of the first frame, run the steps before
+        it (``warm_up(pipeline)``, if given, runs them instead: a progress bar), then for each
+        frame of ``frames`` set its uniforms, run ``steps_per_frame`` steps (none before the
+        first) and draw it; yields each frame's number once it is drawn (``image()`` reads it).
+
+        ``wanted``: the frames a caller needs (None: all). A stateless scene's frames need
+        nothing before them, so only those are drawn; any other scene's frames need every step
+        and frame before them, so those up to the last wanted one are run and only the wanted
+        ones yielded."""
+        frames = int(frames)
+        wanted = range(frames) if wanted is None else sorted(wanted)
+        sim, scene = self.sim, self.scene
+        self.begin(frames, warm_up)
+        visit = wanted if scene.stateless else range((wanted[-1] + 1) if len(wanted) else 0)
+        keep = set(wanted)
+        for frame in visit:
+            if frame:
+                scene.before_frame(sim, frame, frames)
+                self.step(steps_per_frame)
+            self.render(frame, frames)
+            if frame in keep:
+                yield frame
+
+    def begin(self, frames=1, warm_up=None):
+        """Before the first of ``frames`` frames: set its uniforms and run the steps before it
+        (``warm_up(pipeline)``, if given, runs them instead)."""
+        self.scene.before_frame(self.sim, 0, frames)
+        if warm_up is None:
+            self.warm_up()
+        else:
+            warm_up(self)
+
     def step(self, steps=1):
         self.sim.run(steps)
 
@@ -145,34 +153,47 @@ class Pipeline:
         """Run the steps before the first frame."""
         self.sim.run(self.steps)
 
+    def camera(self, frame=0, frames=1):
+        """The scene's camera of frame ``frame`` of ``frames`` (None for a 2D scene)."""
+        return None if self.plan.camera is None else self.plan.camera(frame, frames)
+
     def render(self, frame=0, frames=1):
-        """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): the
-        particles, then the post passes of a 2D scene; returns the final texture."""
-        if self.post is None:
-            self.final = self.renderer.draw(self.sim.buffers, self.scene.camera_at(frame, frames),
-                                            self.scene.model_at(self.sim.steps_done))
-            return self.final
-        self.final = self.post.apply(self.density())
+        """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): every
+        stage of the frame, the density accumulated over the run's samples; returns the final
+        texture."""
+        env = self.executor.frame(self.camera(frame, frames))
+        for stage in self.plan.frame_stages:
+            if stage.kind == "points":
+                self._density(stage, env)
+            else:
+                self.executor.run(stage, env)
+        self.final = self.executor.front(self.plan.present)
         return self.final
 
     def density(self):
         """Draw this step's density (and, accumulating, the next ``accumulate - 1`` steps') into
-        the renderer's target, without the post passes; returns the density texture."""
+        the density target, without the post stages; returns the density texture."""
+        self._density(self.plan.stage("points"), self.executor.frame())
+        return self.executor.front("density")
+
+    def _density(self, stage, env):
         if self._drawn and not self._ordered:
             # Once, before the second frame: positions repeat from frame to frame, so a draw in
             # tile order pays its readback and sort (~75 ms at 2^20) back over the frames that
-            # follow; a still, which draws once, is spared them (see render.py).
-            position = self.sim.buffers["position"]
-            self.renderer.order_by_tiles(position.download(), self.scene.view)
+            # follow; a still, which draws once, is spared them (see render/points.py).
+            from ..render.points import tile_order
+
+            order = tile_order(self.sim.download("position"), self.plan.rendering.view,
+                               self.size)
+            self.executor.write_vertices(stage.vertices, self.sim.layout.texel_uv()[order])
             self._ordered = True
         self._drawn = True
-        density = self.renderer.draw(self.sim.buffers)
+        self.executor.run(stage, env)
         for sample in range(1, self.accumulate):
             self._sample(sample)
-            self.renderer.draw(self.sim.buffers, clear=False)
+            self.executor.run(stage, self.executor.frame(env.camera), clear=False)
         if self.accumulate > 1:
             self._sample(0, step=False)  # the next frame starts as a plain one would
-        return density
 
     def _sample(self, sample, step=True):
         uniforms = self.scene.sample_uniforms(self.share * self.accumulate + sample,
@@ -182,15 +203,17 @@ class Pipeline:
         if step:
             self.sim.step()
 
+    # -- results -----------------------------------------------------------------------------------
+
     def image(self):
         """The last rendered frame as an (h, w, 3) uint8 array, top row first."""
         if self.final is None:
             self.render()
-        return (self.post or self.renderer).read(self.final)
+        return read_rgb(self.ctx, self.final)
 
     def picture(self):
-        """The last rendered frame as a :class:`~es2particles.io.notebook.Picture`: a notebook cell
-        shows it."""
+        """The last rendered frame as a :class:`~es2particles.io.notebook.Picture`: a notebook
+        cell shows it."""
         from ..io.notebook import Picture
 
         return Picture(self.image())
@@ -199,38 +222,103 @@ class Pipeline:
         """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
         return {name: self.sim.download(name) for name in self.sim.buffers}
 
-    def plan(self):
+    def describe(self):
         """The printable plan of a frame: simulation passes, render and post stages, the memory
-        of each texture, and what was left out."""
-        sim = self.sim
-        lines = [f"scene: {self.scene.name}; {sim.count} particles in {sim.layout.width}x"
-                 f"{sim.layout.height} texels ({sim.layout.spare} spare, never drawn); "
-                 f"state format {sim.format_note}"
-                 + (f", {sim.rounding} rounding" if sim.fmt == "rgba8" else "")
-                 + f"; {self.steps} steps before the first frame",
-                 "simulation step:"]
-        lines += ["  " + line for line in sim.describe()]
-        lines += ["  " + line for line in self.scene.describe()]
-        lines += ["  " + line for line in self.scene.measured(self.ctx)]
-        lines.append("frame:")
-        if self.accumulate > 1:
-            lines.append(f"  accumulate: {self.accumulate} samples per image (this step's "
-                         f"density and the next {self.accumulate - 1} steps', "
-                         f"{self.accumulate * sim.count} points), one tone map")
-        lines.append("  " + self.renderer.describe())
-        if self.post is not None:
-            lines += ["  " + line for line in self.post.describe()]
-            left = self.post.left_out()
-        else:
-            left = ["tone map, gradient map and bloom (a 3D sprite image is final)"]
-        lines.append("  left out: " + (", ".join(left) if left else "nothing"))
-        return "\n".join(lines)
+        of each texture, and what was left out (with the scene's measured lines)."""
+        return "\n".join(self.plan.describe(self.scene.measured(self.ctx)))
 
     def release(self):
-        for part in (self.post, self.renderer, self.sim):
-            if part is not None:
-                part.release()
-        self.post = self.renderer = self.sim = None
+        if self.executor is not None:
+            self.executor.release()
+        self.executor = self.sim = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def read_rgb(ctx, texture):
+    """An RGBA8 texture as an (h, w, 3) uint8 image, top row first (GL's first row is the
+    bottom)."""
+    w, h = texture.size
+    pixels = np.frombuffer(ctx.read(texture), dtype=np.uint8).reshape(h, w, 4)
+    return pixels[::-1, :, :3].copy()
+
+
+class Renderer:
+    """A rendering declaration (:class:`~es2particles.render.points.Density`,
+    :class:`~es2particles.render.sprites.Sprites`) drawn from the state of a
+    :class:`Simulation` someone else made: its stages planned over the simulation's quantities
+    and made real, the simulation's textures read as they are.
+
+    ``settings`` (a FrameSettings, or keywords as :class:`Pipeline` takes them) give the size,
+    point size, intensity and post settings; ``defaults`` the scene defaults (point size) where
+    a setting is left out. ``motion``: a :class:`~es2particles.render.meshes.Motion` of the moving
+    meshes (or pass ``model`` to :meth:`draw`).
+    """
+
+    def __init__(self, ctx, rendering, sim, settings=None, defaults=None, motion=None,
+                 **given):
+        from ..scenes.base import Defaults
+
+        self.executor = None
+        self.ctx, self.rendering, self.sim = ctx, rendering, sim
+        settings = settings_of(settings, **given)
+        b = PlanBuilder("rendering", settings, ctx.caps)
+        b.graph_plan, b.layout, b.format = sim.plan, sim.layout, sim.fmt
+        b.format_note, b.rounding = sim.format_note, sim.rounding
+        b.size = parse_size(b.setting("size", (1024, 1024)), ctx.caps.max_texture_size)
+        for name, buffer in sim.buffers.items():
+            from .plan import Resource
+
+            q = buffer.quantity
+            b.resource(Resource(name, "state", sim.layout.size, buffer.fmt, parts=buffer.parts,
+                                buffers=len(buffer.textures[0]), quantity=q))
+        missing = [q for q in rendering.reads if q not in sim.buffers]
+        if missing:
+            raise ParameterError(f"the renderer reads {', '.join(missing)}, which the "
+                                 f"simulation does not hold (it holds {', '.join(sim.buffers)})")
+        present = rendering.plan(b, defaults or Defaults())
+        unused = [n for n in settings.given() if n not in b.used]
+        if unused:
+            raise ParameterError(f"{', '.join(unused)}: this rendering does not use "
+                                 f"{'it' if len(unused) == 1 else 'them'} ({rendering.kind})")
+        self.plan = b.finish(present=present, size=b.size, motion=motion)
+        self.size = b.size
+        self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))
+        self.final = None
+
+    def draw(self, camera=None, model=None, clear=True):
+        """Draw the frame seen from ``camera`` (3D), the moving meshes placed by ``model`` (a 4x4
+        matrix; default the motion after the simulation's steps); ``clear`` False keeps the
+        density target's sum (accumulation). Returns the presented texture."""
+        env = self.executor.frame(camera, model, self.sim.steps_done)
+        for stage in self.plan.frame_stages:
+            self.executor.run(stage, env, clear=clear or stage.kind != "points")
+        self.final = self.executor.front(self.plan.present)
+        return self.final
+
+    def read(self, name=None):
+        """The presented image (h, w, 3) uint8 top row first, or resource ``name``'s latest
+        texels as an (h, w, channels) array of its format (row 0 at the bottom; RGBA8 as bytes)."""
+        if name is None:
+            return read_rgb(self.ctx, self.final if self.final is not None else self.draw())
+        from ..gl.context import TEXTURE_FORMATS, numpy_dtype
+
+        resource = self.plan.resources[name]
+        w, h = resource.size
+        raw = np.frombuffer(self.executor.read(name), numpy_dtype(resource.format))
+        return raw.reshape(h, w, TEXTURE_FORMATS[resource.format][0]).copy()
+
+    def describe(self):
+        return "\n".join(self.plan.describe())
+
+    def release(self):
+        if self.executor is not None:
+            self.executor.release()
+        self.executor = None
 
     def __enter__(self):
         return self

@@ -1,43 +1,20 @@
-"""Executing a pass graph's plan on the GPU: textures, programs, one step after another.
+"""A simulation: a pass graph's plan made real, stepped, and its state read and written.
 
-Everything GL is made once here, in the constructor: state textures and framebuffers, programs,
-vertex arrays, and the uniform handles that are set per step. ``step()`` then only binds textures,
+:class:`Simulation` is the public face of the simulation part of a frame plan: made from a
+:class:`~es2particles.frame.graph.PassGraph` alone (``Simulation(ctx, graph, count)``: an
+:class:`~es2particles.frame.executor.Executor` of the graph's passes and nothing else), or over a
+whole frame's executor (``Simulation.over``, what a :class:`~es2particles.frame.pipeline.Pipeline`
+hands a scene). Everything GL is made once, when the executor is; ``step()`` only binds textures,
 sets the step number and draws, pass by pass, and swaps the ping-pong buffers at the end.
 """
 
 import numpy as np
 
-from ..gl.bindings import pass_interface, uniform_value
-from ..gl.command import FullscreenCommand
-from ..errors import Es2ParticlesError, ParameterError, ShaderError, check_range
-from .state import FORMATS, Layout, StateBuffer, per_component
-
-ROUNDINGS = ("nearest", "dither")
-AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
-
-
-def resolve_format(ctx, fmt):
-    """The storage format to use and a note saying why: ``auto`` takes the most precise format
-    the context can render to; a named one must be renderable (else CapabilityError)."""
-    if fmt == "auto":
-        for candidate in AUTO_ORDER:
-            if ctx.caps.renderable.get(candidate):
-                return candidate, f"{candidate} (auto: the most precise renderable format)"
-    if fmt not in FORMATS:
-        raise ParameterError(f"format must be one of {sorted(FORMATS)} or 'auto', got {fmt!r}")
-    ctx.require_format(fmt)
-    return fmt, fmt
-
-
-def check_rounding(rounding):
-    if rounding not in ROUNDINGS:
-        raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
-    return rounding
-
-
-def draw_defines(spec, rounding):
-    """The defines of a pass's draws: the pass's own, and STATE_DITHER for dithered rounding."""
-    return {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
+from ..errors import Es2ParticlesError, ParameterError, check_range
+from ..gl.bindings import uniform_value
+from .executor import Executor
+from .plan import check_rounding, plan_graph
+from .state import per_component
 
 
 def fill_box(name, lo, hi, components):
@@ -48,48 +25,6 @@ def fill_box(name, lo, hi, components):
         raise ParameterError(f"fill of {name!r}: lo and hi must have hi >= lo, got "
                              f"{lo.tolist()} and {hi.tolist()}")
     return lo.astype(np.float32), (hi - lo).astype(np.float32)
-
-
-class _Draw:
-    """One full-screen draw of a pass: part ``part`` of the quantity it writes."""
-
-    def __init__(self, group, spec, part, quantities, buffers, fmt, defines, layout, textures):
-        self.spec = spec
-        self.interface = pass_interface(spec, quantities, fmt, part)
-        stage = spec.stage(part)
-        try:
-            self.command = FullscreenCommand(group, spec.frag, stage, defines, self.interface)
-        except ShaderError as error:
-            raise ShaderError(f"{error}\n  (the graph declares for {stage}: "
-                              f"{', '.join(sorted(self.interface.names))})") from None
-        cmd = self.command
-        for name, (kind, what) in ((n, v[:2]) for n, v in self.interface.samplers.items()):
-            call = f"read_{what}" if kind == "quantity" else name
-            if not cmd.uses(call):
-                raise ParameterError(f"{cmd.where()} declares it reads {kind} {what!r} but its "
-                                     f"shader never uses {call}")
-        cmd.check_fed(self.interface.samplers)
-        cmd.set_generated(self.interface, layout)
-        for name, value in spec.uniforms.items():
-            self.set_uniform(name, value)
-        self.step_uniform = cmd.program["u_step"] if cmd.has("u_step") else None
-        self.written, self.part = buffers[spec.writes], part  # its target swaps each step
-        # (sampler, buffer, part, this step?) of quantities; fixed textures by sampler name
-        self.inputs = [(s, buffers[q], k, new) for s, (kind, q, k, new) in
-                       ((s, v) for s, v in self.interface.samplers.items() if v[0] == "quantity")]
-        self.fixed_textures = {s: textures[v[1]] for s, v in self.interface.samplers.items()
-                               if v[0] == "texture"}
-
-    def set_uniform(self, name, value):
-        self.command.set(name, uniform_value(name, value, self.interface.uniforms[name]))
-
-    def draw(self, step):
-        textures = dict(self.fixed_textures)
-        for sampler, buffer, part, new in self.inputs:
-            textures[sampler] = (buffer.written if new else buffer.fronts)[part]
-        if self.step_uniform is not None:
-            self.step_uniform.value = float(step)
-        self.command.draw(self.written.framebuffer(self.part), textures)
 
 
 class Simulation:
@@ -114,46 +49,50 @@ class Simulation:
     """
 
     def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):
-        self.group = None
+        self.executor = None
         check_rounding(rounding)
         ctx.make_current()
-        self.ctx, self.rounding, self.graph = ctx, rounding, graph
-        self.plan = graph.plan(outputs)
-        self.layout = Layout.for_count(count, ctx.caps.max_texture_size)
-        self.fmt, self.format_note = resolve_format(ctx, fmt)
-        self.steps_done = 0
-        self.group = ctx.group()
-        self.buffers, self.draws, self.textures = {}, [], {}
-        try:
-            for name, n in self.plan.buffers.items():
-                quantity = self.plan.quantities[name]
-                if quantity.storage:
-                    ctx.require_format(quantity.storage)
-                self.buffers[name] = StateBuffer(self.group, quantity, self.layout,
-                                                 quantity.format_in(self.fmt), n)
-            for name, data in self.plan.textures.items():
-                if not isinstance(data, np.ndarray):  # astc.Compressed blocks
-                    self.textures[name] = self.group.compressed_texture(data)
-                    continue
-                h, w = data.shape[:2]
-                fmt = "rgba8" if data.dtype == np.uint8 else "rgba32f"
-                self.textures[name] = self.group.texture((w, h), fmt, data=data.tobytes())
-            for spec, part, _ in self.plan.draws(self.fmt):
-                self.draws.append(_Draw(self.group, spec, part, graph.quantities, self.buffers,
-                                        self.fmt, draw_defines(spec, rounding), self.layout,
-                                        self.textures))
-        except Exception:
-            self.release()
-            raise
-        self._swapped = [b for b in self.buffers.values() if b.ping_pong]
+        frame_plan = plan_graph(graph, count, outputs, fmt, rounding, ctx.caps)
+        self._attach(ctx, graph, Executor(ctx, frame_plan), owns=True)
+
+    @classmethod
+    def over(cls, executor):
+        """The simulation of a frame's ``executor`` (which keeps owning everything)."""
+        sim = cls.__new__(cls)
+        sim._attach(executor.ctx, executor.plan.pass_graph, executor, owns=False)
+        return sim
+
+    def _attach(self, ctx, graph, executor, owns):
+        self.ctx, self.graph, self.executor, self._owns = ctx, graph, executor, owns
+        frame_plan = executor.plan
+        self.plan, self.layout = frame_plan.graph, frame_plan.layout
+        self.fmt, self.format_note, self.rounding = (frame_plan.format, frame_plan.format_note,
+                                                     frame_plan.rounding)
+        self.buffers = {name: executor.resources[name] for name in self.plan.buffers}
+        self.textures = {name: executor.resources[name] for name in self.plan.textures}
 
     @property
     def count(self):
         return self.layout.count
 
+    @property
+    def steps_done(self):
+        """Steps run so far: the step number ``u_step`` the next step's passes see."""
+        return self.executor.steps_done
+
+    @steps_done.setter
+    def steps_done(self, value):
+        self.executor.steps_done = int(check_range("steps_done", value, 0, None, integer=True))
+
+    @property
+    def stages(self):
+        """The plan's draws of one step, in order (:class:`~es2particles.frame.plan.Stage`: a
+        pass of a quantity of three or four components in RGBA8 draws twice)."""
+        return self.executor.plan.step_stages
+
     def _use(self):
         """Make this simulation's context current; a released simulation refuses."""
-        if self.group is None:
+        if self.executor is None or self.executor.group is None:
             raise Es2ParticlesError("this Simulation was released; make a new one")
         self.ctx.make_current()
 
@@ -188,9 +127,8 @@ class Simulation:
         if name not in known:
             raise ParameterError(f"no pass of this graph declares a uniform {name!r} (declared: "
                                  f"{', '.join(sorted(known)) or 'none'})")
-        for draw in self.draws:
-            if name in draw.spec.uniforms:
-                draw.set_uniform(name, value)
+        self.executor.set_uniform(name, value, lambda stage, v: uniform_value(
+            name, v, stage.interface.uniforms[name]) if stage.step else v)
 
     def set_uniforms(self, values):
         """Set several uniforms (each as :meth:`set_uniform`)."""
@@ -218,11 +156,7 @@ class Simulation:
     def step(self):
         """Run every planned draw once, then make this step's values the front ones."""
         self._use()
-        for draw in self.draws:
-            draw.draw(self.steps_done)
-        for buffer in self._swapped:
-            buffer.swap()
-        self.steps_done += 1
+        self.executor.step()
 
     def run(self, steps):
         """Run ``steps`` steps (a whole number >= 0)."""
@@ -236,14 +170,11 @@ class Simulation:
 
     def release(self):
         """Release the state and scene textures (programs stay cached in the context); safe
-        twice."""
-        if self.group is None:
-            return
-        if self.ctx.mgl is not None:
-            self.ctx.make_current()
-        self.group.release()
-        self.group = None
-        self.draws, self.buffers, self._swapped, self.textures = [], {}, [], {}
+        twice. A simulation over a pipeline's executor leaves it to the pipeline."""
+        if self.executor is not None and self._owns:
+            self.executor.release()
+        self.executor = None
+        self.buffers, self.textures = {}, {}
 
     def __enter__(self):
         return self

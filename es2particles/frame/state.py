@@ -146,36 +146,21 @@ class Layout:
 HALF_MAX = 65504.0  # the largest finite half float
 
 
-class StateBuffer:
-    """One quantity's textures: one per part, each twice for ping-pong when last step's value is
-    read, else once.
+class Textures:
+    """A resource's textures: one per part, each twice for ping-pong, and a framebuffer each.
 
-    ``fronts`` hold the latest value; a pass writes part k into ``framebuffer(k)`` (the back
-    texture) and ``swap()`` makes the backs the fronts, so no pass ever reads and writes one
-    texture.
+    ``fronts`` hold the latest value; a draw writes part k into ``framebuffer(k)`` (the back
+    texture) and ``swap()`` makes the backs the fronts, so no draw ever reads and writes one
+    texture. A target with ``depth`` has one depth buffer, shared by its framebuffers.
     """
 
-    def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
-        if fmt not in FORMATS:
-            raise ParameterError(f"format must be one of {list(FORMATS)}, got {fmt!r}")
-        if fmt == "rgba16f":
-            reach = float(np.max(np.abs(np.concatenate([quantity.lo, quantity.hi]))))
-            if reach > HALF_MAX:
-                raise ParameterError(f"quantity {quantity.name!r} reaches {reach:.3g}, beyond "
-                                     f"rgba16f's largest value {HALF_MAX:g}: store it in rgba8 "
-                                     "or rgba32f")
-        self.quantity, self.layout, self.fmt = quantity, layout, fmt
-        # textures[k] = [front, back] (or [only]) of part k
-        self.textures = [[group.texture(layout.size, fmt) for _ in range(buffers)]
-                         for _ in range(quantity.parts(fmt))]
-        self.framebuffers = [[group.framebuffer(t) for t in pair] for pair in self.textures]
-        # Start at world zero (clamped into the range): a GPU clear to that texel, cheaper than
-        # encoding and uploading a zero array.
-        texels = zero_texels(quantity, fmt)
-        for part, pair in enumerate(self.framebuffers):
-            colour = texels[part] / 255.0 if fmt == "rgba8" else texels[part]
-            for framebuffer in pair:
-                framebuffer.clear(*(float(c) for c in colour))
+    def __init__(self, group, size, fmt, parts=1, buffers=1, depth=False, linear=False):
+        self.ctx, self.size, self.fmt = group.ctx, tuple(size), fmt
+        self.textures = [[group.texture(self.size, fmt, filter_nearest=not linear)
+                          for _ in range(buffers)] for _ in range(parts)]
+        self.depth = group.depth(self.size) if depth else None
+        self.framebuffers = [[group.framebuffer(t, self.depth) for t in pair]
+                             for pair in self.textures]
 
     @property
     def parts(self):
@@ -195,14 +180,38 @@ class StateBuffer:
     def ping_pong(self):
         return len(self.textures[0]) == 2
 
-    def framebuffer(self, part):
-        """The framebuffer a pass writes part ``part`` of this quantity into."""
+    def framebuffer(self, part=0):
+        """The framebuffer a draw writes part ``part`` into (the back of a pair)."""
         return self.framebuffers[part][-1]
 
     def swap(self):
         if self.ping_pong:
             for pair in self.textures + self.framebuffers:
                 pair.reverse()
+
+
+class StateBuffer(Textures):
+    """One quantity's textures (see :class:`Textures`), with its values' encoding: uploads,
+    uniform fills and downloads in world units."""
+
+    def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
+        if fmt not in FORMATS:
+            raise ParameterError(f"format must be one of {list(FORMATS)}, got {fmt!r}")
+        if fmt == "rgba16f":
+            reach = float(np.max(np.abs(np.concatenate([quantity.lo, quantity.hi]))))
+            if reach > HALF_MAX:
+                raise ParameterError(f"quantity {quantity.name!r} reaches {reach:.3g}, beyond "
+                                     f"rgba16f's largest value {HALF_MAX:g}: store it in rgba8 "
+                                     "or rgba32f")
+        super().__init__(group, layout.size, fmt, quantity.parts(fmt), buffers)
+        self.quantity, self.layout = quantity, layout
+        # Start at world zero (clamped into the range): a GPU clear to that texel, cheaper than
+        # encoding and uploading a zero array.
+        texels = zero_texels(quantity, fmt)
+        for part, pair in enumerate(self.framebuffers):
+            colour = texels[part] / 255.0 if fmt == "rgba8" else texels[part]
+            for framebuffer in pair:
+                self.ctx.clear(framebuffer, colour)
 
     def upload(self, values):
         """Write world values (count, components) into the fronts (clamped to the range)."""
@@ -222,11 +231,11 @@ class StateBuffer:
             raise ParameterError(f"{self.quantity.name} is stored in rgba8: texels must be uint8 "
                                  f"bytes, got {texels.dtype}")
         for texture, full in zip(self.fronts, part_textures(texels, self.layout, self.fmt)):
-            texture.write(full.tobytes())
+            self.ctx.write(texture, full.tobytes())
 
     def read_texels(self):
         """Raw texel contents (count, parts, 4) of the fronts."""
-        raw = [np.frombuffer(t.read(), dtype=numpy_dtype(self.fmt)).reshape(-1, 4)
+        raw = [np.frombuffer(self.ctx.read(t), dtype=numpy_dtype(self.fmt)).reshape(-1, 4)
                [: self.layout.count] for t in self.fronts]
         return np.stack(raw, axis=1)
 
@@ -235,7 +244,6 @@ class StateBuffer:
         q = self.quantity
         return packing.state_decode(self.read_texels(), q.lo32, q.span32,
                                     self.fmt).astype(np.float64)
-
 
 
 def zero_texels(quantity, fmt):

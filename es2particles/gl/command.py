@@ -1,76 +1,108 @@
-"""One full-screen command type: a fragment shader drawn over a whole target.
+"""One draw command for every draw: a program, its primitive and vertex data, its samplers and
+uniforms by name, and the GL state of its draw.
 
-Every full-screen draw of the package is one of these: the simulation's passes, the post chain's
-stages and the context's format probe. A command owns its vertex array (through its component's
-:class:`~es2particles.gl.context.Group`), gives each sampler the program really uses a texture unit
-by name, and is strict about names, with one policy everywhere:
+Every draw of the package is one of these: simulation passes, the density points, sprites, meshes,
+the shadow map, the sort's key and merge passes, the post stages and the context's format probe
+(regl: "a command is a complete representation of the WebGL state required to perform some draw
+call"). A command owns its vertex array (through its component's
+:class:`~es2particles.gl.context.Group`), gives each sampler its program really uses a texture
+unit by name (nobody numbers units by hand), and is strict about names, with one policy
+everywhere:
 
-- a uniform given to it must be active in its program (a misspelled or unused name is an error
-  that names the stage, the shader file and the name, where GL would drop it silently);
-- every sampler the program uses must be fed on every draw;
-- its GL state (target, blending) is scoped to the draw and switched off even when an exception
-  passes through (``Context.scope``).
+- a uniform given to it must be declared by its sources (the shader files or the generated
+  interface) and used by the shader's own code; a misspelled or unused name is an error naming
+  the stage, the shader files and the name, where GL would drop it silently;
+- every sampler the program uses must be fed on every draw, and a texture given for a sampler
+  the sources never declare is an error;
+- its :class:`~es2particles.gl.device.DrawState` is set for its draw and switched off again after
+  it, even when an exception passes through (the device's draw).
+
+Whether the driver keeps a used uniform active is its own business (one whose result is never
+written is optimised away, and drivers differ there), so a used uniform the driver dropped is
+skipped, not an error.
 """
 
 import re
 
-import moderngl
-
+from ..errors import ParameterError
 from .bindings import compile_checked, declared_names, generated_values, strip_comments
 from .context import ProgramValues
-from ..errors import ParameterError
+from .device import PRIMITIVES, DrawState
 from .shaders import GENERATED, expand
 
-GL_SAMPLER_2D = 0x8B5E
+FULLSCREEN = "lib/fullscreen.vert"
 
 
-class FullscreenCommand:
-    """A fragment shader over ``lib/fullscreen.vert``, its samplers and its uniforms.
+class DrawCommand:
+    """A program and everything its draws need.
 
     Parameters
     ----------
     group : Group
-        The owner of the command's vertex array.
+        The owner of the command's vertex array (and, with ``vertices``, of nothing else: the
+        buffers in ``vertices`` belong to whoever made them).
+    stage : str
+        How errors and plans name the command ("pass 'drift'", "post stage bloom blur").
     fragment : str
         The fragment shader: a library name or a path.
-    stage : str
-        How errors name the command ("pass 'drift'", "post stage bloom blur").
+    vertex : str
+        The vertex shader; the full-screen triangle's by default.
     defines : mapping, optional
-    interface : bindings.Interface, optional
-        The generated interface of a pass, placed before the shader's own lines and checked
-        against them (``bindings.compile_checked``).
-
-    A uniform is given by name: it must be declared (by the shader or the interface) and
-    referenced by the shader's code, else the call is an error. Whether the driver keeps it
-    active is its own business (a uniform whose result is never written is optimised away, and
-    drivers differ there), so a referenced uniform the driver dropped is skipped, not an error.
+    interface, vertex_interface : bindings.Interface, optional
+        The generated interface of the fragment shader (a pass) or of the vertex shader (a stage
+        that reads particles at a texel), placed before the shader's own lines and checked against
+        them (``bindings.compile_checked``).
+    vertices : list, optional
+        moderngl-style vertex array content ``[(buffer, "2f", "a_texel"), ...]``; None draws the
+        full-screen triangle.
+    primitive : str
+        ``triangles`` or ``points``.
+    state : DrawState
+        Blending, depth, point size and sprites of every draw of the command.
     """
 
-    def __init__(self, group, fragment, stage, defines=None, interface=None):
-        self.ctx, self.stage, self.fragment = group.ctx, stage, fragment
-        prelude = interface.lines if interface is not None else None
+    def __init__(self, group, stage, fragment, vertex=FULLSCREEN, defines=None, interface=None,
+                 vertex_interface=None, vertices=None, primitive="triangles", state=DrawState()):
+        if primitive not in PRIMITIVES:
+            raise ParameterError(f"{stage}: primitive must be one of {PRIMITIVES}, got "
+                                 f"{primitive!r}")
+        self.ctx, self.stage, self.primitive, self.state = group.ctx, stage, primitive, state
+        self.files = (str(vertex), str(fragment)) if vertex != FULLSCREEN else (str(fragment),)
+        self.fragment = fragment
+        fs_prelude = interface.lines if interface is not None else None
         epilogue = interface.epilogue if interface is not None else None
-        source = expand(fragment, defines, prelude, epilogue)
-        self.declared, self.referenced = _names(source)
+        vs_prelude = vertex_interface.lines if vertex_interface is not None else None
+        sources = (expand(vertex, defines, vs_prelude), expand(fragment, defines, fs_prelude,
+                                                               epilogue))
+        self.declared, self.referenced = {}, set()
+        for source in sources:
+            declared, referenced = _names(source)
+            self.declared.update(declared)
+            self.referenced |= referenced
 
         def compile():
-            return self.ctx.program("lib/fullscreen.vert", fragment, defines,
-                                    fragment_prelude=prelude, fragment_epilogue=epilogue)
+            return self.ctx.program(vertex, fragment, defines, vertex_prelude=vs_prelude,
+                                    fragment_prelude=fs_prelude, fragment_epilogue=epilogue)
 
-        self.program = (compile_checked(compile, source, interface, self.where())
-                        if interface is not None else compile())
-        self.vao = group.fullscreen(self.program)
-        members = {name: self.program[name] for name in self.program}
-        self.samplers = sorted(name for name, m in members.items()
-                               if isinstance(m, moderngl.Uniform) and m.gl_type == GL_SAMPLER_2D)
+        for checked, source in ((vertex_interface, sources[0]), (interface, sources[1])):
+            if checked is not None:
+                compile = _checked(compile, source, checked, self.where())
+        self.program = compile()
+        if vertices is None:
+            self.vertex_array = group.fullscreen(self.program)
+        else:
+            self.vertex_array = group.vertex_array(self.program, vertices)
+        active = self.ctx.device.uniforms(self.program)
+        self.active = set(active)
+        self.samplers = sorted(name for name, u in active.items() if u.sampler)
+        self.lengths = {name: u.length for name, u in active.items()}
         self.units = {name: unit for unit, name in enumerate(self.samplers)}
-        self.state = ProgramValues(self.ctx, self.program)  # the program may be shared
+        self.values = ProgramValues(self.ctx, self.program)  # the program may be shared
         for name, unit in self.units.items():
-            self.state.set(name, unit)
-        self.active = {name for name, m in members.items() if isinstance(m, moderngl.Uniform)}
+            self.values.set(name, unit)
 
     def where(self):
-        return f"{self.stage} ({self.fragment})"
+        return f"{self.stage} ({', '.join(self.files)})"
 
     def has(self, name):
         """True if ``name`` is an active uniform of the program."""
@@ -92,14 +124,14 @@ class FullscreenCommand:
             raise ParameterError(f"{self.where()}: uniform {name!r} is given, but the shader "
                                  f"{how} (uniforms it uses: {', '.join(uniforms) or 'none'})")
         if name not in self.active:
-            return  # referenced, but its result is never written: the driver dropped it
-        handle = self.program[name]
+            return  # used, but its result is never written: the driver dropped it
+        length = self.lengths[name]
         try:
             if isinstance(value, list):
-                value = value[: handle.array_length]  # the driver keeps only the used elements
-                if handle.array_length == 1:
+                value = value[:length]  # the driver keeps only the used elements
+                if length == 1:
                     value = value[0]  # moderngl takes an array of one as its element
-            self.state.set(name, value)
+            self.values.set(name, value)
         except Exception as error:
             raise ParameterError(f"{self.where()}: uniform {name!r} cannot take {value!r} "
                                  f"({error})") from None
@@ -109,31 +141,43 @@ class FullscreenCommand:
             self.set(name, value)
 
     def set_generated(self, interface, layout):
-        """Set what the generated interface declares for a state ``layout``: the quantities'
+        """Set what a generated interface declares for a state ``layout``: the quantities'
         ranges, ``u_state_size`` and ``u_count`` (each where the driver kept it)."""
         for name, value in generated_values(interface, layout).items():
             if self.has(name):
-                self.state.set(name, value)
+                self.values.set(name, value)
 
     def check_fed(self, samplers):
-        """Raise unless ``samplers`` (names) covers every sampler the program uses."""
+        """Raise unless ``samplers`` (names) covers every sampler the program uses and names no
+        sampler its sources never declare."""
         unfed = [name for name in self.samplers if name not in samplers]
         if unfed:
             raise ParameterError(f"{self.where()}: sampler {', '.join(map(repr, unfed))} is used "
                                  f"by the shader but nothing feeds it (fed: "
                                  f"{', '.join(sorted(samplers)) or 'nothing'})")
+        unknown = [name for name in samplers if self.declared.get(name) != "sampler2D"]
+        if unknown:
+            raise ParameterError(f"{self.where()}: a texture is given for "
+                                 f"{', '.join(map(repr, unknown))}, which the shader does not "
+                                 f"declare as a sampler (its samplers: "
+                                 f"{', '.join(self.samplers) or 'none'})")
 
-    def draw(self, framebuffer, textures, blend=None):
-        """Draw over ``framebuffer`` with ``textures`` (sampler name -> texture)."""
-        try:
-            for name, unit in self.units.items():
-                textures[name].use(unit)
-        except KeyError:
+    def draw(self, framebuffer, textures, uniforms=None, first=0, count=None):
+        """Draw into ``framebuffer`` with ``textures`` (sampler name -> texture), after setting
+        ``uniforms`` (name -> value, by :meth:`set`): the full-screen triangle, or ``count``
+        vertices from ``first`` (None: all of the vertex data)."""
+        for name, value in (uniforms or {}).items():
+            self.set(name, value)
+        if len(textures) != len(self.samplers) or any(s not in textures for s in self.samplers):
             self.check_fed(textures)
-            raise
-        self.state.current()
-        with self.ctx.scope(framebuffer, blend=blend):
-            self.vao.render(moderngl.TRIANGLES)
+        bound = {self.units[name]: textures[name] for name in self.samplers}
+        self.values.current()
+        self.ctx.device.draw(self.vertex_array, framebuffer, bound, self.state, self.primitive,
+                             first, count)
+
+
+def _checked(compile, source, interface, stage):
+    return lambda: compile_checked(compile, source, interface, stage)
 
 
 def _names(source):

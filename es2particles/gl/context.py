@@ -6,9 +6,7 @@ The returned :class:`Context` is the one owner of every texture, framebuffer, bu
 package makes, counts them, and releases them all on ``release()`` or at the end of a ``with``.
 """
 
-import ctypes
 import os
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -89,7 +87,9 @@ def open_context(device=None):
                 errors.append(str(error).strip() or type(error).__name__)
                 continue
             if mgl.version_code >= MIN_GL_VERSION:
-                return Context(mgl, backend or "default", profile)
+                from .device import GLDevice
+
+                return Context(GLDevice(mgl, backend or "default", profile))
             errors.append(f"{profile} profile is GL {mgl.version_code}, below {MIN_GL_VERSION}")
             mgl.release()
         unique = list(dict.fromkeys(errors))  # a missing library fails both profiles alike
@@ -114,7 +114,28 @@ class Capabilities:
     # first time one is asked for (see FormatFlags), so a run probes only the formats it uses.
     renderable: dict = field(default_factory=dict)
     blendable: dict = field(default_factory=dict)
+    extensions: frozenset = frozenset()
     probe_store_rule: object = field(default=None, repr=False, compare=False)
+
+    @classmethod
+    def assumed(cls, **changes):
+        """Capabilities stated rather than probed: llvmpipe's figures on this project's machines
+        (every format renderable and blendable, ASTC listed), for plans made with no context
+        (``es2particles plan`` without a GL driver, a recording device's tests); ``changes``
+        override any field."""
+        formats = {name: True for name in TEXTURE_FORMATS}
+        values = dict(backend="assumed", profile="core", vendor="assumed", renderer="assumed",
+                      version="assumed", max_texture_size=16384, max_vertex_texture_units=16,
+                      point_size_range=(1.0, 255.0), renderable=dict(formats),
+                      blendable=dict(formats),
+                      extensions=frozenset({"GL_KHR_texture_compression_astc_ldr"}))
+        values.update(changes)
+        return cls(**values)
+
+    @property
+    def astc(self):
+        """True where the driver lists ASTC LDR textures."""
+        return "GL_KHR_texture_compression_astc_ldr" in self.extensions
 
     @property
     def store_rule(self):
@@ -173,83 +194,99 @@ class FormatFlags(dict):
 
 
 class Context:
-    """A headless GL context and the one owner of the GL objects made through it."""
+    """A headless GL context and the one owner of the GL objects made through it.
 
-    def __init__(self, mgl, backend="egl", profile="core"):
-        self.mgl = mgl
-        self.backend = backend
-        self.profile = profile
-        self._gl_calls = {}
+    Every object is made, and every draw, read and write is done, through its ``device``: a
+    :class:`~es2particles.gl.device.GLDevice` (moderngl) from :func:`open_context`, or a
+    :class:`~es2particles.gl.device.RecordingDevice`, which draws nothing and records the calls
+    (``Context(RecordingDevice())``: the executor's call stream with no GL library loaded).
+    """
+
+    def __init__(self, device, backend=None, profile=None):
+        if not hasattr(device, "draw"):  # a bare moderngl context, as earlier versions took
+            from .device import GLDevice
+
+            device = GLDevice(device, backend or "egl", profile or "core")
+        self.device = device
+        self.backend, self.profile = device.backend, device.profile
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         Context._current = self  # a new context is current
         self._owned = []
         self._programs = {}
         self._caps = None
         self._fullscreen = None
+        self._open = True
 
     _current = None  # the Context made current last (GL calls go to it, whoever makes them)
+
+    @property
+    def mgl(self):
+        """The moderngl context of a GL device (None once released, or on a recording device):
+        for tests and tools that need moderngl itself."""
+        return getattr(self.device, "mgl", None) if self._open else None
 
     def make_current(self):
         """Make this context the thread's current one: GL calls go to whichever context was made
         current last, so every object makes its own current before GL work (a no-op when it
         already is). A released context raises :class:`ContextError`."""
-        if self.mgl is None:
+        if not self._open:
             raise ContextError("this context was released; open a new one with open_context()")
         if Context._current is not self:
-            self.mgl.__enter__()
+            self.device.make_current()
             Context._current = self
 
     def flush(self):
-        """glFlush: hand the queued GL work to the driver without waiting for it to finish.
+        """Hand the queued GL work to the driver without waiting for it (glFlush)."""
+        self.device.flush()
 
-        moderngl has no call for it, so it comes through moderngl's own GL function loader; where
-        that loader is not there, this does nothing (a flush changes speed, never results).
-        """
-        self._gl_function("glFlush")()
+    def finish(self):
+        """Wait until the GL work queued so far is done (timings)."""
+        if self.mgl is not None:
+            self.mgl.finish()
+
+    def error(self):
+        """The device's GL error flag (``"GL_NO_ERROR"`` when none)."""
+        return self.device.error()
 
     # -- ownership ---------------------------------------------------------------------------
 
     def own(self, obj):
-        """Take ownership of a moderngl object; it is released with the context."""
+        """Take ownership of an object the device made; it is released with the context."""
         self._owned.append(obj)
         return obj
 
     def free(self, *objects):
         """Release objects made through this context before the context itself goes."""
-        import moderngl
-
         self.make_current()  # GL names are per context: deleting them elsewhere deletes others
-        if any(isinstance(obj, moderngl.Framebuffer) for obj in objects):
-            # moderngl re-binds the last used framebuffer when it makes the next one; if that one
-            # was deleted, GL answers INVALID_OPERATION. Park on the default framebuffer first.
-            self.mgl.detect_framebuffer(0).use()
         for obj in objects:
             if obj is None:
                 continue
             for i, owned in enumerate(self._owned):
                 if owned is obj:
                     del self._owned[i]
-                    obj.release()
+                    self.device.release(obj)
                     break
 
     def live_objects(self):
         """Count of GL objects alive, by type name (a test can check a run leaks nothing)."""
         counts = {}
         for obj in self._owned:
-            counts[type(obj).__name__] = counts.get(type(obj).__name__, 0) + 1
+            name = getattr(obj, "kind", None) or type(obj).__name__
+            name = _TYPE_NAMES.get(name, name)
+            counts[name] = counts.get(name, 0) + 1
         return counts
 
     def release(self):
         """Release every owned object and the context; safe to call twice."""
-        if self.mgl is not None:
+        if self._open:
             self.make_current()  # its objects' names must be deleted in it, not in another
         while self._owned:
-            self._owned.pop().release()
+            self.device.release(self._owned.pop())
         self._programs.clear()
         self._fullscreen = None
-        if self.mgl is not None:
-            self.mgl.release()
-            self.mgl = None
+        if self._open:
+            self.device.close()
+            self._open = False
         # Releasing a context may leave another (or none) current, whatever was before: the next
         # make_current() must switch for real.
         Context._current = None
@@ -263,29 +300,20 @@ class Context:
     # -- factories ---------------------------------------------------------------------------
 
     def texture(self, size, fmt="rgba8", data=None, filter_nearest=True):
-        """A 2D texture of ``fmt`` (rgba8, rgba16f, rgba32f), NEAREST-sampled and clamped.
+        """A 2D texture of ``fmt`` (rgba8, rgba16f, rgba32f, r32f), NEAREST-sampled and clamped
+        (``filter_nearest=False``: linear).
 
         Packed state must be sampled NEAREST: linear filtering would mix high and low bytes.
         """
         components, dtype = TEXTURE_FORMATS[fmt]
-        tex = self.own(self.mgl.texture(tuple(size), components, data=data, dtype=dtype))
-        import moderngl
-
-        mode = moderngl.NEAREST if filter_nearest else moderngl.LINEAR
-        tex.filter = (mode, mode)
-        tex.repeat_x = tex.repeat_y = False
-        return tex
+        return self.own(self.device.texture(tuple(size), components, dtype, data,
+                                            linear=not filter_nearest))
 
     def compressed_texture(self, compressed):
-        """A 2D texture holding :class:`~es2particles.fields.astc.Compressed` ASTC blocks as they are,
-        NEAREST-sampled and clamped; :class:`CapabilityError` where the driver cannot take them.
-
-        moderngl's ``texture`` checks data against the uncompressed size, so an owned RGBA8
-        texture of that size is made and its level 0 replaced by glCompressedTexImage2D.
-        """
-        import moderngl
-
-        from ..fields import astc
+        """A 2D texture holding :class:`~es2particles.fields.astc.Compressed` ASTC blocks as they
+        are, NEAREST-sampled and clamped; :class:`CapabilityError` where the driver cannot take
+        them."""
+        from ..fields import astc  # only compressed fields need it: not imported at start-up
 
         if not isinstance(compressed, astc.Compressed):
             raise ParameterError(f"compressed must be an astc.Compressed (see astc.compress), got "
@@ -294,28 +322,24 @@ class Context:
         if reason:
             raise CapabilityError(f"ASTC textures cannot be used: {reason}")
         self.make_current()  # the upload is a raw GL call: it goes to the current context
-        upload = self._gl_function("glCompressedTexImage2D", ctypes.c_uint, ctypes.c_int,
-                                   ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
-                                   ctypes.c_int, ctypes.c_char_p, required=True)
-        c = compressed
-        tex = self.own(self.mgl.texture((c.width, c.height), 4))
-        tex.use(0)
-        upload(GL_TEXTURE_2D, 0, c.internal_format, c.width, c.height, 0, c.nbytes, c.data)
-        error = self.mgl.error
+        tex, error = self.device.compressed_texture(compressed)
+        self.own(tex)
         if error != "GL_NO_ERROR":
             self.free(tex)
+            c = compressed
             raise CapabilityError(f"glCompressedTexImage2D of {c.width}x{c.height} ASTC "
                                   f"{c.block[0]}x{c.block[1]} failed with {error}")
-        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        tex.repeat_x = tex.repeat_y = False
         return tex
 
     def framebuffer(self, texture, depth=None):
-        return self.own(self.mgl.framebuffer(color_attachments=[texture],
-                                             depth_attachment=depth))
+        return self.own(self.device.framebuffer(texture, depth))
+
+    def depth(self, size):
+        """A depth buffer of ``size`` (for a framebuffer that depth-tests)."""
+        return self.own(self.device.depth_buffer(tuple(size)))
 
     def buffer(self, data):
-        return self.own(self.mgl.buffer(data))
+        return self.own(self.device.buffer(data))
 
     def program(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None,
                 fragment_epilogue=None):
@@ -325,82 +349,39 @@ class Context:
                tuple(vertex_prelude or ()), tuple(fragment_prelude or ()),
                tuple(fragment_epilogue or ()))
         if key not in self._programs:
-            self._programs[key] = self.own(compile_program(self.mgl, vertex, fragment, defines,
+            self._programs[key] = self.own(compile_program(self.device, vertex, fragment, defines,
                                                            vertex_prelude, fragment_prelude,
                                                            fragment_epilogue))
         return self._programs[key]
 
-    @contextmanager
-    def scope(self, framebuffer, blend=None, point_size=False, depth_test=False,
-              depth_write=True, sprites=False):
-        """GL state for one draw: target ``framebuffer``, blending (None, ``"add"``: ONE, ONE, or
-        ``"over"``: premultiplied), program point size, depth test and depth writes, point
-        sprites. Everything is switched off again on the way out, also when an exception passes
-        through.
-
-        ``sprites``: gl_PointCoord varies over each point. Core profiles and ES always do that;
-        by the spec, the compatibility profile that :func:`open_context` prefers does it only with
-        GL_POINT_SPRITE enabled, which moderngl has no flag for, so it is switched through the
-        GL function loader. (Mesa varies it for ES shaders even without the switch.)"""
-        import moderngl
-
-        flags = moderngl.NOTHING
-        if blend is not None:
-            flags |= moderngl.BLEND
-        if point_size:
-            flags |= moderngl.PROGRAM_POINT_SIZE
-        if depth_test:
-            flags |= moderngl.DEPTH_TEST
-        framebuffer.use()
-        framebuffer.depth_mask = bool(depth_write)
-        self.mgl.enable_only(flags)
-        if blend is not None:
-            self.mgl.blend_func = BLEND_FUNCTIONS[blend]
-        point_sprite = sprites and self.profile == "compatibility"
-        if point_sprite:
-            self._gl_switch("glEnable", GL_POINT_SPRITE)
-        try:
-            yield
-        finally:
-            if point_sprite:
-                self._gl_switch("glDisable", GL_POINT_SPRITE)
-            framebuffer.depth_mask = True
-            self.mgl.enable_only(moderngl.NOTHING)
-
-    def _gl_switch(self, name, cap):
-        """glEnable/glDisable of a capability moderngl does not name."""
-        self._gl_function(name, ctypes.c_uint)(cap)
-
-    def _gl_function(self, name, *argtypes, required=False):
-        """A GL entry point moderngl has no call for, through moderngl's own function loader
-        (loaded once). Where that loader is not there: a no-op for calls that change speed or
-        state moderngl's drivers already have, never results; :class:`CapabilityError` for a
-        ``required`` one, whose effect is the result (an upload)."""
-        if name not in self._gl_calls:
-            loader = getattr(self.mgl.mglo, "_context", None)
-            address = loader.load_opengl_function(name) if loader is not None else 0
-            self._gl_calls[name] = (ctypes.CFUNCTYPE(None, *argtypes)(address) if address
-                                    else None)
-        if self._gl_calls[name] is None:
-            if required:
-                raise CapabilityError(f"the GL function {name} cannot be loaded through "
-                                      f"moderngl on the {self.backend} back-end")
-            return lambda *args: None
-        return self._gl_calls[name]
-
     def vertex_array(self, program, content):
-        return self.own(self.mgl.vertex_array(program, content))
+        return self.own(self.device.vertex_array(program, content))
 
     def fullscreen(self, program):
         """A vertex array drawing the full-screen triangle of ``lib/fullscreen.vert``."""
         if self._fullscreen is None:
-            self._fullscreen = self.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4"))
+            self._fullscreen = self.buffer(np.array([-1, -1, 3, -1, -1, 3], dtype="f4").tobytes())
         return self.vertex_array(program, [(self._fullscreen, "2f", "a_position")])
 
     def group(self):
         """A new :class:`Group`: the GL objects of one component, released together."""
         return Group(self)
 
+    # -- work --------------------------------------------------------------------------------
+
+    def clear(self, framebuffer, colour, depth=None):
+        """Clear ``framebuffer`` to ``colour`` (and its depth buffer to ``depth``)."""
+        self.device.clear(framebuffer, tuple(float(c) for c in colour), depth)
+
+    def read(self, texture):
+        """A texture's bytes, row 0 (GL's bottom row) first."""
+        self.make_current()
+        return self.device.read(texture)
+
+    def write(self, obj, data):
+        """Replace a texture's or buffer's contents with ``data`` (bytes)."""
+        self.make_current()
+        self.device.write(obj, data)
 
     # -- capabilities ------------------------------------------------------------------------
 
@@ -408,7 +389,8 @@ class Context:
     def caps(self):
         """The :class:`Capabilities` report, probed once."""
         if self._caps is None:
-            self._caps = _probe(self)
+            given = getattr(self.device, "caps", None)
+            self._caps = given if given is not None else _probe(self)
         return self._caps
 
     def require_format(self, fmt, blend=False):
@@ -420,6 +402,12 @@ class Context:
             raise CapabilityError(f"format {fmt!r} cannot be {need} on {self.caps.renderer}")
 
 
+# Names of what live_objects() counts: moderngl's class names, and the recording device's kinds.
+_TYPE_NAMES = {"texture": "Texture", "framebuffer": "Framebuffer", "buffer": "Buffer",
+               "program": "Program", "vertex array": "VertexArray",
+               "depth buffer": "Renderbuffer"}
+
+
 def read_rgb(texture):
     """An RGBA8 texture as an (h, w, 3) uint8 image, top row first (GL's first row is the
     bottom)."""
@@ -429,8 +417,7 @@ def read_rgb(texture):
 
 
 def _probe(ctx):
-    mgl = ctx.mgl
-    info = mgl.info
+    info = ctx.device.info()
     caps = Capabilities(
         backend=ctx.backend,
         profile=ctx.profile,
@@ -440,6 +427,7 @@ def _probe(ctx):
         max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 0)),
         max_vertex_texture_units=int(info.get("GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS", 0)),
         point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
+        extensions=frozenset(ctx.device.extensions()),
         probe_store_rule=lambda: _probe_store_rule(ctx),
     )
 
@@ -456,20 +444,22 @@ def _draw_constant(ctx, fmt, colour, blends=1):
     """Render a constant colour into a 4x4 target of ``fmt``: once, then ``blends`` times more
     with additive blending; the first texel after each draw, as float64 (r32f: only .r means
     anything)."""
-    from .command import FullscreenCommand
+    from .command import DrawCommand
+    from .device import DrawState
 
     group = ctx.group()
     try:
         tex = group.texture((4, 4), fmt)
         fbo = group.framebuffer(tex)
-        fbo.clear(0, 0, 0, 0)
-        command = FullscreenCommand(group, "lib/constant.frag", "format probe")
+        ctx.clear(fbo, (0, 0, 0, 0))
+        command = DrawCommand(group, "format probe", "lib/constant.frag")
         command.set("u_colour", tuple(colour))
         components = TEXTURE_FORMATS[fmt][0]
         texels = []
         for draw in range(1 + blends):
-            command.draw(fbo, {}, blend="add" if draw else None)
-            texel = np.frombuffer(tex.read(), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
+            command.state = DrawState(blend="add" if draw else None)
+            command.draw(fbo, {})
+            texel = np.frombuffer(ctx.read(tex), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
             texels.append(np.resize(texel.astype(np.float64), 4))
         return texels
     finally:
@@ -483,7 +473,7 @@ def _probe_format(ctx, fmt):
         once, twice = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0))
     except Exception:
         return False, False
-    if ctx.mgl.error != "GL_NO_ERROR":
+    if ctx.error() != "GL_NO_ERROR":
         return False, False
     if fmt == "rgba8":
         return bool(once[0] == 64), bool(twice[0] == 128)
@@ -506,11 +496,6 @@ def _probe_store_rule(ctx):
     return "unknown (bytes %s)" % got.astype(int).tolist()
 
 
-BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
-GL_POINT_SPRITE = 0x8861
-GL_TEXTURE_2D = 0x0DE1
-
-
 class ProgramValues:
     """The uniform values one user keeps on a program. The context compiles each program once and
     hands it to every user with the same sources and defines, but uniform values live in the
@@ -524,7 +509,7 @@ class ProgramValues:
     def set(self, name, value):
         """Keep ``value`` for uniform ``name`` (active in the program) and set it now."""
         self.current()
-        self.program[name].value = value
+        self.ctx.device.set_uniform(self.program, name, value)
         self.values[name] = value
 
     def current(self):
@@ -532,7 +517,7 @@ class ProgramValues:
         users = self.ctx._program_users
         if users.get(id(self.program)) is not self:
             for name, value in self.values.items():
-                self.program[name].value = value
+                self.ctx.device.set_uniform(self.program, name, value)
             users[id(self.program)] = self
 
 
@@ -558,8 +543,8 @@ class Group:
         return self._keep(self.ctx.framebuffer(texture, depth))
 
     def depth(self, size):
-        """A depth renderbuffer of ``size`` (for a framebuffer that depth-tests)."""
-        return self._keep(self.ctx.own(self.ctx.mgl.depth_renderbuffer(tuple(size))))
+        """A depth buffer of ``size`` (for a framebuffer that depth-tests)."""
+        return self._keep(self.ctx.depth(size))
 
     def buffer(self, data):
         return self._keep(self.ctx.buffer(data))
@@ -571,6 +556,6 @@ class Group:
         return self._keep(self.ctx.fullscreen(program))
 
     def release(self):
-        if self.ctx.mgl is not None:
+        if self.ctx._open:
             self.ctx.free(*reversed(self.objects))
         self.objects = []

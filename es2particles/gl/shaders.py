@@ -181,20 +181,20 @@ def _source_line(file, line):
         return ""
 
 
-def compile_program(mgl, vertex, fragment, defines=None, vertex_prelude=None,
+def compile_program(device, vertex, fragment, defines=None, vertex_prelude=None,
                     fragment_prelude=None, fragment_epilogue=None):
-    """Compile and link a moderngl program from library or user shader files, each with its
-    generated prelude (see :func:`expand`).
+    """Compile and link a program on ``device`` (see ``device.py``) from library or user shader
+    files, each with its generated prelude (see :func:`expand`).
 
     Raises :class:`ShaderError` naming the file and line of each driver message.
     """
-    import moderngl
+    from .device import ProgramError
 
     vs = expand(vertex, defines, vertex_prelude)
     fs = expand(fragment, defines, fragment_prelude, fragment_epilogue)
     try:
-        return mgl.program(vertex_shader=vs.text, fragment_shader=fs.text)
-    except moderngl.Error as error:
+        return device.program(vs.text, fs.text)
+    except ProgramError as error:
         raise ShaderError(_explain(str(error), vs, fs, vertex, fragment)) from None
 
 

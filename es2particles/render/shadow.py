@@ -16,13 +16,13 @@ per addition, adds nothing (``tests/test_smoke.py`` measures both).
 
 from dataclasses import dataclass
 
-import moderngl
 import numpy as np
 
-from .camera import Camera
-from ..gl.context import bytes_per_texel, numpy_dtype
 from ..errors import CapabilityError, ParameterError, check_range
-from ..frame.graph import format_bytes
+from ..frame.plan import Ref, Resource, Stage
+from ..gl.bindings import generated_values, stage_interface
+from ..gl.device import DrawState
+from .camera import Camera
 
 LAYERS = 4
 FORMATS = ("auto", "rgba32f", "rgba16f", "rgba8")
@@ -81,15 +81,15 @@ class OpacityShadow:
         return 2 * self.radius / LAYERS
 
 
-def choose_format(ctx, fmt):
-    """The map's format and a note saying why."""
+def choose_format(caps, fmt):
+    """The map's format on a context of ``caps``, and a note saying why."""
     if fmt != "auto":
-        if not ctx.caps.blendable.get(fmt):
+        if not caps.blendable.get(fmt):
             raise CapabilityError(f"shadow format {fmt} cannot be blended into on "
-                                  f"{ctx.caps.renderer}")
+                                  f"{caps.renderer}")
         return fmt, fmt
     for candidate in ("rgba32f", "rgba16f"):
-        if ctx.caps.blendable.get(candidate):
+        if caps.blendable.get(candidate):
             return candidate, f"{candidate} (auto: float, blendable)"
     return "rgba8", (f"rgba8 (no float target can be blended into: opacity in units of "
                      f"{RGBA8_UNIT:g}, saturating at {1 / RGBA8_UNIT:g})")
@@ -119,98 +119,45 @@ def opacity_map(points, opacity, settings):
     return out
 
 
-class ShadowMap:
-    """The map's target and pass for a sprite renderer (which owns it, and it its GL objects).
-
-    Parameters
-    ----------
-    ctx : Context
-    settings : OpacityShadow
-    quantities, layout, state_format
-        What the pass reads (position, life), as the sprite renderer's.
-    sprite : texture
-        The sprite renderer's sprite texture (owned by it): its alpha is each particle's
-        footprint in the map too.
-    opacity : float
-        A sprite's opacity at its centre.
-    size_spread, point_size_range, growth
-        As the sprite renderer's, so each particle's size matches its sprite.
-    """
-
-    def __init__(self, ctx, settings, quantities, layout, state_format, sprite, opacity,
-                 size_spread, point_size_range, growth=1.0):
-        from .points import ParticleStage
-
-        self.ctx, self.settings = ctx, settings
-        self.format, self.format_note = choose_format(ctx, settings.format)
-        self.unit = RGBA8_UNIT if self.format == "rgba8" else 1.0
-        camera = settings.camera()
-        self.view_projection = camera.uniform(1.0)
-        self.focal = camera.focal_pixels(settings.size)
-        self.size_spread, self.point_size_range = size_spread, point_size_range
-        self.opacity, self.sprite = float(opacity * self.unit), sprite
-        self.group = ctx.group()
-        try:
-            self.stage = ParticleStage(self.group, "sprites/shadow.vert", "sprites/shadow.frag",
-                                       "the shadow map pass", quantities, state_format, layout,
-                                       {}, {} if growth == 1 else {"GROWTH": None})
-            self.sprite_unit = len(self.stage.units)
-            self.stage.set_many({"u_sprite": self.sprite_unit, **self.uniforms()})
-            if growth != 1:
-                self.stage.set_many({"u_growth": float(growth)})
-            self.map = self.group.texture((settings.size, settings.size), self.format)
-            self.framebuffer = self.group.framebuffer(self.map)
-        except Exception:
-            self.group.release()
-            raise
-
-    def uniforms(self):
-        """What ``lib/shadow.glsl`` reads, for any program that includes it."""
-        s = self.settings
-        forward, front = s.axis()
-        return {"u_light_view_projection": self.view_projection,
-                "u_light_eye": tuple(map(float, s.light)),
-                "u_light_axis": (*map(float, forward), float(front)),
-                "u_shadow": (float(s.layer_depth() * LAYERS), 1.0 / self.unit,
-                             float(s.extinction), float(s.ambient)),
-                "u_shadow_size": float(s.size), "u_shadow_opacity": self.opacity}
-
-    def sizes(self, world_size):
-        """``u_light_size`` for sprites of diameter ``world_size`` (world units, before the
-        per-particle factor): at distance d from the light they span world_size / d radians, as
-        they do from the eye."""
-        lo, hi = self.point_size_range
-        return {"u_light_size": (float(world_size * self.focal), float(self.size_spread),
-                                 float(lo), float(hi))}
-
-    def draw(self, buffers, world_size):
-        """Clear the map and add every particle, each a sprite of ``world_size`` (see
-        :meth:`sizes`); returns the map."""
-        self.stage.bind(buffers)
-        self.sprite.use(self.sprite_unit)
-        self.stage.set_many(self.sizes(world_size))
-        with self.ctx.scope(self.framebuffer, blend="add", point_size=True, sprites=True):
-            self.framebuffer.clear(0.0, 0.0, 0.0, 0.0)
-            self.stage.vao.render(moderngl.POINTS)
-        return self.map
-
-    def read(self):
-        """The map as (size, size, 4) float64 opacities (row 0 at the bottom), in opacity units."""
-        data = np.frombuffer(self.map.read(), dtype=numpy_dtype(self.format))
-        data = data.reshape(self.settings.size, self.settings.size, 4).astype(np.float64)
-        if self.format == "rgba8":
-            data /= 255.0
-        return data / self.unit
-
-    def describe(self):
-        s = self.settings
-        return (f"opacity shadow map: {LAYERS} layers of {s.layer_depth():.3g} m from the light "
-                f"at {tuple(round(v, 3) for v in s.light)} in one {self.format_note} target "
-                f"{s.size}x{s.size} "
-                f"({format_bytes(s.size * s.size * bytes_per_texel(self.format))}), one additive "
-                f"pass of the particles")
-
-    def release(self):
-        self.group.release()
+def map_uniforms(settings, fmt, opacity):
+    """What ``lib/shadow.glsl`` reads, for a map of ``settings`` in ``fmt`` (RGBA8 keeps
+    opacities in units of :data:`RGBA8_UNIT`) and sprites of ``opacity``."""
+    unit = RGBA8_UNIT if fmt == "rgba8" else 1.0
+    forward, front = settings.axis()
+    return {"u_light_view_projection": settings.camera().uniform(1.0),
+            "u_light_eye": tuple(map(float, settings.light)),
+            "u_light_axis": (*map(float, forward), float(front)),
+            "u_shadow": (float(settings.layer_depth() * LAYERS), 1.0 / unit,
+                         float(settings.extinction), float(settings.ambient)),
+            "u_shadow_size": float(settings.size),
+            "u_shadow_opacity": float(opacity * unit)}
 
 
+def plan_shadow(b, settings, quantities, size_spread, growth, opacity, per_focal):
+    """Add the opacity shadow map of ``settings`` to plan builder ``b``: its target and the pass
+    that draws every particle into it, seen from the light as a sprite of its world size (the
+    image's sprites' size ``per_focal`` pixels at distance 1 over the camera's focal length),
+    adding its ``opacity`` to the channel of its layer. Returns (the uniforms of
+    ``lib/shadow.glsl`` for any program that includes it, the light's focal length in pixels)."""
+    fmt, note = choose_format(b.caps, settings.format)
+    focal = settings.camera().focal_pixels(settings.size)
+    uniforms = map_uniforms(settings, fmt, opacity)
+    b.resource(Resource("shadow map", "target", (settings.size, settings.size), fmt,
+                        what=f"opacity shadow map: {LAYERS} layers of {settings.layer_depth():.3g} "
+                             f"m from the light at {tuple(round(v, 3) for v in settings.light)}, "
+                             f"{note}"))
+    interface = stage_interface(tuple(quantities), quantities, b.format, {})
+    own = dict(uniforms)
+    if growth != 1:
+        own["u_growth"] = float(growth)
+    b.stage(Stage(
+        "shadow map", "shadow map", "sprites/shadow.frag", "sprites/shadow.vert",
+        {} if growth == 1 else {"GROWTH": None}, vertex_interface=interface,
+        inputs={**b.state_inputs(interface), "u_sprite": Ref("sprite")},
+        target=Ref("shadow map"), vertices=b.particle_texels(), primitive="points",
+        count=b.layout.count, state=DrawState(blend="add", point_size=True, sprites=True),
+        uniforms=own, generated=generated_values(interface, b.layout),
+        frame_uniforms={"u_light_size": ("light_size", per_focal, focal, float(size_spread),
+                                         b.size[1])},
+        clear=(0.0, 0.0, 0.0, 0.0), what="each particle adds its opacity to its layer"))
+    return uniforms, focal

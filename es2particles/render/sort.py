@@ -7,16 +7,18 @@ An *order* is a texture of one texel per *slot*, a power-of-two number of slots 
 *padding*: the largest key and the slot's own number as index, so they sort after every particle
 and never appear among the first ``count`` slots, the ones a renderer draws.
 
-:class:`SortingNetwork` sorts the slots with Batcher's odd-even merge sort, L(L+1)/2 passes of
-``sort/merge.frag``, one program whose uniforms change between draws, ping-ponging between two
-textures. Odd-even merge, not bitonic: each of its comparators puts the smaller value at the lower
+The network sorts the slots with Batcher's odd-even merge sort, L(L+1)/2 passes of
+``sort/merge.frag``: one stage of the frame plan drawn once per pass with its (p, k) uniforms,
+ping-ponging between the two textures of the ``order`` resource. Odd-even merge, not bitonic: each of its comparators puts the smaller value at the lower
 slot, so every pass leaves a sorted order as it is, and the passes can be spread over frames while
 the keys change (bitonic stages sort halves in opposite directions and would unsort it).
 
-:class:`DepthSorter` adds the key pass (``sort/key.frag``): each slot keeps the particle it held
-last frame and gets its new key, the view depth for a camera, far first; then all passes of the
-network run, or only the next few of its cycle (Latta 2004, "Building a Million Particle System":
-the order converges over frames and, with coherent motion, stays nearly sorted).
+The key pass (``sort/key.frag``) comes first each frame: each slot keeps the particle it held
+last frame and gets its new key, the view depth for the frame's camera, far first; then all passes
+of the network run, or only the next few of its cycle (Latta 2004, "Building a Million Particle
+System": the order converges over frames and, with coherent motion, stays nearly sorted).
+:func:`plan_sort` adds both stages to a frame plan; :class:`SortingNetwork` and
+:class:`DepthSorter` run them alone (tests, tools).
 
 Key formats:
 
@@ -36,11 +38,11 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..gl.bindings import stage_interface
-from ..gl.command import FullscreenCommand
 from ..errors import CapabilityError, ParameterError, check_range
-from ..gl.context import numpy_dtype
+from ..frame.plan import FrameSettings, PlanBuilder, Ref, Resource, Stage, depth_range
 from ..frame.state import FORMATS as STATE_FORMATS, Layout
+from ..gl.bindings import generated_values, stage_interface
+from ..gl.context import numpy_dtype
 
 FORMATS = ("rgba8", "rgba32f")
 MAX_COUNT = 2 ** 24  # every slot number and index must be an integer float32 holds exactly
@@ -190,103 +192,57 @@ def _inversions(values):
     return total
 
 
-# --- the network on the GPU ------------------------------------------------------------------
+# --- the order: layout and encoding ----------------------------------------------------------
 
-class SortingNetwork:
-    """Batcher's odd-even merge sort of ``count`` (key, index) slots in fragment passes.
-
-    Parameters
-    ----------
-    ctx : Context
-    count : int
-        Slots that hold particles, 1 .. 2^24; the order has the next power of two of slots, the
-        rest padding.
-    fmt : str
-        ``rgba8`` (keys of ``key_bits`` bits, the ES 2.0 baseline) or ``rgba32f`` (float keys).
+class Order:
+    """The slots of an order over ``count`` particles in ``fmt`` (``rgba8`` or ``rgba32f``): pure
+    numbers, no GL.
 
     Attributes
     ----------
-    passes : int
-        Passes of the whole network, L(L+1)/2 for 2^L slots.
-    schedule : list of (p, k)
-        Each pass's merge size and comparator distance, in order.
-    width, height, slots : int
-        The order texture's size; slots = width * height.
-    index_bits, key_bits : int
+    levels, width, height, slots : int
+        2^levels slots in a width x height texture (powers of two, near square).
+    index_bits, key_bits, key_max : int
         rgba8 only: the word's split, index_bits = max(L, 8), key_bits = 32 - index_bits.
-
-    ``texture`` is the front order (the latest result); a renderer draws the particles of its
-    first ``count`` slots, from ``slot_uv()``, decoding them with ``lib/order.glsl`` compiled with
-    ``defines()``.
+    schedule : list of (p, k)
+        Each pass's merge size and comparator distance, in order; ``passes`` of them.
     """
 
-    def __init__(self, ctx, count, fmt="rgba8"):
-        self.group = None
+    def __init__(self, count, fmt="rgba8", max_texture_size=None):
         if fmt not in FORMATS:
             raise ParameterError(f"fmt must be one of {list(FORMATS)}, got {fmt!r}")
         self.count = int(check_range("count", count, 1, MAX_COUNT, integer=True))
-        ctx.make_current()
-        if fmt != "rgba8":
-            ctx.require_format(fmt)
-        self.ctx, self.fmt = ctx, fmt
+        self.fmt = fmt
         self.levels = levels(self.count)
         self.width, self.height = 2 ** ((self.levels + 1) // 2), 2 ** (self.levels // 2)
         self.slots = self.width * self.height
-        if self.width > ctx.caps.max_texture_size:
+        if max_texture_size is not None and self.width > max_texture_size:
             raise CapabilityError(f"an order of {self.slots} slots is {self.width} texels wide; "
-                                  f"the context's largest texture is {ctx.caps.max_texture_size}")
+                                  f"the context's largest texture is {max_texture_size}")
         self.index_bits = index_bits(self.count)
         self.key_bits = 32 - self.index_bits
         self.key_max = 2 ** self.key_bits - 1
         self.schedule = schedule(self.slots)
         self.passes = len(self.schedule)
-        self.cursor = 0  # the next pass of the cycle that run(passes) continues
-        self.group = ctx.group()
-        try:
-            self.textures = [self.group.texture(self.layout, fmt) for _ in range(2)]
-            self.framebuffers = [self.group.framebuffer(t) for t in self.textures]
-            self.command = FullscreenCommand(self.group, "sort/merge.frag",
-                                             "sorting network pass", self.defines())
-            self.command.set("u_order_size", (float(self.width), float(self.height)))
-            self.load(np.zeros(self.count))
-        except Exception:
-            self.group.release()
-            raise
 
     @property
     def layout(self):
         """(width, height) of the order texture."""
         return (self.width, self.height)
 
-    @property
-    def texture(self):
-        """The front order: the result of the latest pass."""
-        return self.textures[0]
-
-    @property
-    def back_framebuffer(self):
-        """The framebuffer a pass writes into (its texture becomes the front on ``swap()``)."""
-        return self.framebuffers[1]
-
-    def swap(self):
-        self.textures.reverse()
-        self.framebuffers.reverse()
-
     def defines(self):
-        """The defines ``lib/order.glsl`` needs to decode this network's slots in any program."""
+        """The defines ``lib/order.glsl`` needs to decode these slots in any program."""
         return order_defines(self.fmt, self.count)
 
     def slot_uv(self):
         """Texel centres (count, 2) float32 of the first ``count`` slots, in slot order (row by
-        row, as a state Layout numbers particles): the vertex buffer of a draw in sorted order
+        row, as a state Layout numbers particles): the vertex data of a draw in sorted order
         (vertex i decodes slot i)."""
         return Layout(self.count, self.width, self.height).texel_uv()
 
     def describe_keys(self):
         return f"{self.fmt}: " + (f"{self.key_bits} key bits" if self.fmt == "rgba8"
                                   else "float keys")
-
-    # -- data ---------------------------------------------------------------------------------
 
     def quantise(self, keys):
         """rgba8 key codes (int64) of float keys in [0, 1] (clamped): round(key * key_max)."""
@@ -312,9 +268,8 @@ class SortingNetwork:
         word = (b[:, 0] << 24) | (b[:, 1] << 16) | (b[:, 2] << 8) | b[:, 3]
         return word >> self.index_bits, word & ((1 << self.index_bits) - 1)
 
-    def load(self, keys):
-        """Upload ``count`` keys, slot i holding (keys[i], i); the rest padding. Starts a new
-        cycle of ``run(passes)``.
+    def texels(self, keys):
+        """The texels (slots, 4) of ``count`` keys, slot i holding (keys[i], i), the rest padding.
 
         rgba8: floats in [0, 1] (clamped) are quantised onto the key bits (``quantise``); an
         integer array is taken as the codes themselves, 0 .. 2^key_bits - 1. rgba32f: finite
@@ -342,22 +297,152 @@ class SortingNetwork:
             keys = self.quantise(keys)
             full[self.count:] = self.key_max
         full[: self.count] = keys
-        self.ctx.make_current()
-        self.texture.write(self.encode(full, np.arange(self.slots)).tobytes())
+        return self.encode(full, np.arange(self.slots))
+
+    def describe(self, passes_per_frame=None):
+        if passes_per_frame is None or passes_per_frame >= self.passes:
+            passes = f"{self.passes} odd-even merge passes per frame"
+        else:
+            frames = math.ceil(self.passes / passes_per_frame)
+            passes = (f"{passes_per_frame} of {self.passes} odd-even merge passes per frame "
+                      f"(the whole network every {frames} frames)")
+        return (f"sort: key pass + {passes} over {self.slots} slots ({self.describe_keys()}), "
+                f"back to front")
+
+
+def order_format(caps, position, state_format, fmt=None):
+    """The order's format: ``fmt`` if given, else ``rgba8`` with rgba8 positions (the ES 2.0 path
+    throughout) and ``rgba32f`` (no quantisation of the depth) where the positions already are
+    float and the context renders rgba32f. (ES 1.00 declares gl_FragColor mediump: bytes survive
+    that on any driver, float keys and indices only where the driver writes highp values through
+    it, as desktop drivers and Mesa do for the way the sort shaders write it.)"""
+    if fmt is not None:
+        if fmt not in FORMATS:
+            raise ParameterError(f"fmt must be one of {list(FORMATS)}, got {fmt!r}")
+        if fmt != "rgba8" and not caps.renderable.get(fmt):
+            raise CapabilityError(f"format {fmt!r} cannot be rendered to on {caps.renderer}")
+        return fmt
+    return ("rgba32f" if position.format_in(state_format) != "rgba8"
+            and caps.renderable.get("rgba32f") else "rgba8")
+
+
+# --- the stages -------------------------------------------------------------------------------
+
+def plan_order(b, order):
+    """Add the ``order`` resource to plan builder ``b``: two textures, swapped after each draw
+    into them, the first holding slot i = (key 0, particle i) and padding."""
+    b.resource(Resource("order", "target", order.layout, order.fmt, buffers=2, swap="draw",
+                        data=order.texels(np.zeros(order.count)),
+                        what=f"sort order, {order.slots} slots ({order.describe_keys()})"))
+
+
+def plan_merge(b, order, passes_per_frame=None):
+    """Add the merge stage to plan builder ``b``: one draw per pass of the network, or the next
+    ``passes_per_frame`` of its cycle each frame."""
+    b.stage(Stage("sort merge", "sort merge", "sort/merge.frag", defines=order.defines(),
+                  inputs={"u_order": Ref("order")}, target=Ref("order"),
+                  uniforms={"u_order_size": (float(order.width), float(order.height))},
+                  repeat=tuple({"u_p": float(p), "u_k": float(k)} for p, k in order.schedule),
+                  per_frame=passes_per_frame,
+                  what="Batcher's odd-even merge sort, the smaller at the lower slot"))
+
+
+def plan_key(b, order, position):
+    """Add the key pass to plan builder ``b``: each slot keeps its particle and gets the
+    particle's view depth, far first, read from quantity ``position`` (3 components)."""
+    # key.frag calls read_position whatever the quantity's name: its interface is written for a
+    # copy named `position`, fed from the quantity's own textures.
+    renamed = replace(position, name="position")
+    interface = stage_interface(("position",), {"position": renamed}, b.format)
+    inputs = {sampler: Ref(position.name, part) for sampler, (_, _, part, _) in
+              interface.samplers.items()}
+    b.stage(Stage("sort key", "sort key", "sort/key.frag", defines=order.defines(),
+                  interface=interface, inputs={**inputs, "u_order": Ref("order")},
+                  target=Ref("order"), generated=generated_values(interface, b.layout),
+                  frame_uniforms={"u_eye": ("eye",), "u_forward": ("forward",),
+                                  "u_depth": ("depth_range", position.lo, position.hi)},
+                  what="the view depth of each slot's particle"))
+
+
+def plan_sort(b, position, passes_per_frame=None, fmt=None):
+    """Add depth sorting of the particles to plan builder ``b``, before whatever draws in sorted
+    order: the key pass, then the network's passes (all, or ``passes_per_frame`` of its cycle
+    each frame; at least the whole network means all). Returns the :class:`Order`."""
+    if passes_per_frame is not None:
+        passes_per_frame = int(check_range("passes_per_frame", passes_per_frame, 1, None,
+                                           integer=True))
+    order = Order(b.layout.count, order_format(b.caps, position, b.format, fmt),
+                  b.caps.max_texture_size)
+    if passes_per_frame is not None and passes_per_frame >= order.passes:
+        passes_per_frame = None  # a whole network each frame
+    plan_order(b, order)
+    plan_key(b, order, position)
+    plan_merge(b, order, passes_per_frame)
+    b.notes.append(order.describe(passes_per_frame))
+    return order
+
+
+# --- the network on its own (tests and tools) --------------------------------------------------
+
+class SortingNetwork:
+    """Batcher's odd-even merge sort of ``count`` (key, index) slots on the GPU, alone: an
+    executor of a plan holding the ``order`` resource and the merge stage (and, given a
+    ``position`` quantity and its ``state_layout``, the key pass, as :class:`DepthSorter` uses
+    it). Attributes are the :class:`Order`'s; ``texture`` is the front order."""
+
+    def __init__(self, ctx, count, fmt="rgba8", position=None, state_layout=None,
+                 state_format="rgba8"):
+        from ..frame.executor import Executor
+
+        self.executor = None
+        self.order = Order(count, fmt, ctx.caps.max_texture_size)
+        if fmt != "rgba8":
+            ctx.require_format(fmt)
+        ctx.make_current()
+        b = PlanBuilder("sort", FrameSettings(), ctx.caps)
+        b.layout, b.format = state_layout or Layout(count, self.order.width,
+                                                     self.order.height), state_format
+        external = {}
+        plan_order(b, self.order)
+        if position is not None:
+            b.resource(Resource(position.name, "state", b.layout.size, position.format_in(
+                state_format), parts=position.parts(state_format), quantity=position))
+            external[position.name] = None
+            plan_key(b, self.order, position)
+        plan_merge(b, self.order)
+        self.plan = b.finish(present="order")
+        self.ctx, self.cursor = ctx, 0
+        self.executor = Executor(ctx, self.plan, external=external)
+        self.merge = self.plan.stage("sort merge")
+
+    def __getattr__(self, name):
+        if name in ("count", "fmt", "levels", "width", "height", "slots", "index_bits",
+                    "key_bits", "key_max", "schedule", "passes", "layout", "defines", "slot_uv",
+                    "describe_keys", "quantise", "encode", "decode"):
+            return getattr(self.order, name)
+        raise AttributeError(name)
+
+    @property
+    def texture(self):
+        """The front order: the result of the latest pass."""
+        return self.executor.front("order")
+
+    def load(self, keys):
+        """Upload ``count`` keys, slot i holding (keys[i], i); the rest padding (see
+        :meth:`Order.texels`). Starts a new cycle of ``run(passes)``."""
+        texels = self.order.texels(keys)
+        self.ctx.write(self.texture, texels.tobytes())
         self.cursor = 0
 
     def read_slots(self):
         """(keys, indices) of every slot of the front order (padding included)."""
-        self.ctx.make_current()
-        texels = np.frombuffer(self.texture.read(), dtype=numpy_dtype(self.fmt))
-        return self.decode(texels.reshape(-1, 4))
+        texels = np.frombuffer(self.executor.read("order"), dtype=numpy_dtype(self.fmt))
+        return self.order.decode(texels.reshape(-1, 4))
 
     def read(self):
         """(keys, indices) of the first ``count`` slots, in order (numpy; for tests and tools)."""
         keys, indices = self.read_slots()
         return keys[: self.count], indices[: self.count]
-
-    # -- passes -------------------------------------------------------------------------------
 
     def run(self, passes=None):
         """Run the whole network (None), or the next ``passes`` passes of its cycle (wrapping
@@ -370,18 +455,19 @@ class SortingNetwork:
             todo = [(self.cursor + i) % self.passes for i in range(passes)] if self.passes else []
             if self.passes:
                 self.cursor = (self.cursor + passes) % self.passes
-        self.ctx.make_current()
-        for i in todo:
-            p, k = self.schedule[i]
-            self.command.set("u_p", float(p))
-            self.command.set("u_k", float(k))
-            self.command.draw(self.back_framebuffer, {"u_order": self.texture})
-            self.swap()
+        self.executor.run(self.merge, draws=list(todo))
+
+    def rekey(self, position_buffer, camera):
+        """The key pass: re-key the current order for ``camera`` from the positions in
+        ``position_buffer`` (a StateBuffer of the position quantity given at construction)."""
+        name = next(r.name for r in self.plan.resources.values() if r.kind == "state")
+        self.executor.bind(name, position_buffer)
+        self.executor.run(self.plan.stage("sort key"), self.executor.frame(camera))
 
     def release(self):
-        """Release the textures and the command's vertex array; safe to call twice."""
-        if self.group is not None:
-            self.group.release()
+        """Release the textures and the commands; safe to call twice."""
+        if self.executor is not None:
+            self.executor.release()
 
     def __enter__(self):
         return self
@@ -391,33 +477,15 @@ class SortingNetwork:
 
 
 class DepthSorter:
-    """Orders particles back to front for a camera: the key pass and a :class:`SortingNetwork`.
-
-    Parameters
-    ----------
-    ctx : Context
-    position_quantity : Quantity
-        The particles' position (3 components), read from the state at its range.
-    state_layout : Layout
-        Where the particles sit in the state textures (its count is the sorted count).
-    state_format : str
-        The simulation's storage format (``rgba8``, ``rgba16f`` or ``rgba32f``).
-    fmt : str, optional
-        The order's format, ``rgba8`` or ``rgba32f``. By default it follows the state: ``rgba8``
-        with ``rgba8`` state (the ES 2.0 path throughout), ``rgba32f`` (no quantisation of the
-        depth) where the state already is float and the context renders rgba32f. (ES 1.00
-        declares gl_FragColor mediump: bytes survive that on any driver, float keys and indices
-        only where the driver writes highp values through it, as desktop drivers and Mesa do for
-        the way the sort shaders write it.)
-    passes_per_frame : int, optional
-        None runs the whole network every ``update``; k runs the key pass and the next k passes
-        of the network's cycle, so the order converges over frames (k >= the network's passes is
-        the whole network).
-    """
+    """Orders particles back to front for a camera, alone: the key pass and a
+    :class:`SortingNetwork`, reading the positions of ``position_quantity`` (3 components) laid
+    out as ``state_layout`` in ``state_format``. ``fmt``: the order's format (default: see
+    :func:`order_format`); ``passes_per_frame``: None runs the whole network every ``update``,
+    k the key pass and the next k passes of the network's cycle."""
 
     def __init__(self, ctx, position_quantity, state_layout, state_format="rgba8", fmt=None,
                  passes_per_frame=None):
-        self.group = self.network = None
+        self.network = None
         if getattr(position_quantity, "components", None) != 3:
             raise ParameterError("position_quantity must be a Quantity of 3 components, got "
                                  f"{position_quantity!r}")
@@ -427,31 +495,16 @@ class DepthSorter:
         if state_format not in STATE_FORMATS:
             raise ParameterError(f"state_format must be one of {STATE_FORMATS}, got "
                                  f"{state_format!r}")
-        if fmt is None:
-            fmt = ("rgba32f" if position_quantity.format_in(state_format) != "rgba8"
-                   and ctx.caps.renderable.get("rgba32f") else "rgba8")
+        fmt = order_format(ctx.caps, position_quantity, state_format, fmt)
         self.ctx, self.quantity, self.layout = ctx, position_quantity, state_layout
-        self.network = SortingNetwork(ctx, state_layout.count, fmt)
-        try:
-            self.passes_per_frame = passes_per_frame
-            if passes_per_frame is not None and passes_per_frame >= self.network.passes:
-                self.passes_per_frame = None  # a whole network each frame
-            # key.frag calls read_position whatever the quantity's name: its interface is
-            # written for a copy named `position`, fed from the quantity's own buffer.
-            renamed = replace(position_quantity, name="position")
-            self.interface = stage_interface(("position",), {"position": renamed}, state_format)
-            self.group = ctx.group()
-            self.command = FullscreenCommand(self.group, "sort/key.frag", "depth sort key pass",
-                                             self.network.defines(), self.interface)
-            self.command.set_generated(self.interface, state_layout)
-        except Exception:
-            self.release()
-            raise
-        self.samplers = {name: part for name, (_, _, part, _) in self.interface.samplers.items()}
+        self.network = SortingNetwork(ctx, state_layout.count, fmt, position_quantity,
+                                      state_layout, state_format)
+        self.passes_per_frame = passes_per_frame
+        if passes_per_frame is not None and passes_per_frame >= self.network.passes:
+            self.passes_per_frame = None
 
     @property
     def texture(self):
-        """The front order texture (see :class:`SortingNetwork`)."""
         return self.network.texture
 
     def defines(self):
@@ -462,47 +515,22 @@ class DepthSorter:
 
     def depth_range(self, camera):
         """(near, far): the view depths of the position box's nearest and farthest corners."""
-        lo, hi = np.array(self.quantity.lo), np.array(self.quantity.hi)
-        corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)]
-                            for c in range(8)])
-        depth = (corners - np.array(camera.eye)) @ camera.forward
-        return float(depth.min()), float(depth.max())
+        return depth_range(self.quantity.lo, self.quantity.hi, camera)
 
     def update(self, buffers, camera):
         """Re-key the current order for ``camera`` from the positions in ``buffers`` (quantity
         name -> StateBuffer; its fronts are read) and run the network's passes for this frame."""
-        network, command = self.network, self.command
-        self.ctx.make_current()
-        near, far = self.depth_range(camera)
-        command.set("u_eye", tuple(float(v) for v in camera.eye))
-        command.set("u_forward", tuple(float(v) for v in camera.forward))
-        command.set("u_depth", (far, 1.0 / max(far - near, 1e-30)))
-        fronts = buffers[self.quantity.name].fronts
-        textures = {name: fronts[part] for name, part in self.samplers.items()}
-        textures["u_order"] = network.texture
-        command.draw(network.back_framebuffer, textures)
-        network.swap()
-        network.run(self.passes_per_frame)
+        self.network.rekey(buffers[self.quantity.name], camera)
+        self.network.run(self.passes_per_frame)
 
     def order(self):
         """The particle indices in drawing order, far first (reads the GPU back: tests)."""
         return self.network.read()[1]
 
     def describe(self):
-        n = self.network
-        if self.passes_per_frame is None:
-            passes = f"{n.passes} odd-even merge passes per frame"
-        else:
-            frames = math.ceil(n.passes / self.passes_per_frame)
-            passes = (f"{self.passes_per_frame} of {n.passes} odd-even merge passes per frame "
-                      f"(the whole network every {frames} frames)")
-        return (f"sort: key pass + {passes} over {n.slots} slots ({n.describe_keys()}), "
-                f"back to front")
+        return self.network.order.describe(self.passes_per_frame)
 
     def release(self):
         """Release the key pass and the network; safe to call twice."""
-        if self.group is not None:
-            self.group.release()
         if self.network is not None:
             self.network.release()
-

@@ -1,10 +1,13 @@
 """What a scene is: a declaration the framework carries out.
 
-A scene returns data and never touches GL: its pass graph (quantities, passes with their shaders,
-defines and uniforms, scene textures as numpy arrays), its start (numpy arrays or uniform fills),
-the uniforms that change per frame, what the renderer reads, a background image, and its
-defaults. The framework uploads and owns every texture, applies the start, and resolves each
-default once (``Pipeline``), so the command line passes only what the user typed.
+A scene returns data and never touches GL: its pass graph for a context's capabilities
+(quantities, passes with their shaders, defines and uniforms, scene textures as numpy arrays), its
+start (numpy arrays or uniform fills), the uniforms that change per frame, its rendering (a
+:class:`~es2particles.render.points.Density` or :class:`~es2particles.render.sprites.Sprites`
+declaration), a 3D scene's camera and motion, and its defaults. The framework plans the frame,
+uploads and owns every texture, applies the start, and resolves each default once
+(:func:`~es2particles.frame.plan.plan_frame`), so the command line passes only what the user
+typed.
 
 Scenes register by entry point (group ``es2particles.scenes``): another package adds one with
 ``[project.entry-points."es2particles.scenes"] name = "package.module:SceneClass"``.
@@ -71,9 +74,8 @@ class Scene:
     """Base of the scenes. Subclasses set the class attributes and override the declarations."""
 
     name = ""
-    view = (-1.0, -1.0, 1.0, 1.0)  # world rectangle that fills the image: x0, y0, x1, y1
-    render = "density"  # 2D density points (PointRenderer) or 3D "sprites" (SpriteRenderer)
-    render_reads = ("position",)  # quantities the renderer reads: position, and life to fade
+    view = (-1.0, -1.0, 1.0, 1.0)  # a 2D scene's world rectangle: x0, y0, x1, y1
+    render_reads = ("position",)  # what a 2D scene's points read: position, and life to fade
     defaults = Defaults()
     # True where each particle lands near last frame's place (reseeded scenes): the renderer then
     # orders its draw by framebuffer tile once, ~10% off the draw on a CPU rasteriser.
@@ -94,9 +96,19 @@ class Scene:
         """The scene from parsed arguments."""
         return cls()
 
-    def graph(self):
-        """The scene's complete :class:`~es2particles.PassGraph`."""
+    def graph(self, caps=None):
+        """The scene's complete :class:`~es2particles.PassGraph` for a context of ``caps``
+        (its :class:`~es2particles.gl.context.Capabilities`: the largest texture, ASTC; None:
+        the stated ones, ``Capabilities.assumed()``)."""
         raise NotImplementedError
+
+    def rendering(self):
+        """What the scene draws: by default :class:`~es2particles.render.points.Density` points
+        of :attr:`render_reads` over :attr:`view`, on :meth:`background`; a 3D scene returns a
+        :class:`~es2particles.render.sprites.Sprites`."""
+        from ..render.points import Density
+
+        return Density(self.view, self.render_reads, self.background())
 
     def start(self, count, rng):
         """The starting state: quantity name -> (count, components) array or :class:`Fill`.
@@ -128,24 +140,21 @@ class Scene:
         """Lines the printed plan measures on the context (slow figures), after describe()."""
         return []
 
-    # -- 3D scenes (render = "sprites") ------------------------------------------------------
-
-    def meshes(self):
-        """Opaque meshes drawn before the particles (``sprites.Mesh``)."""
-        return []
+    # -- 3D scenes (rendering() is Sprites) ----------------------------------------------------
 
     def camera_at(self, frame, frames):
         """The :class:`~es2particles.render.camera.Camera` of frame ``frame`` of ``frames``."""
         raise NotImplementedError
 
-    def model_at(self, step):
-        """The moving meshes' model matrix (4x4, rest pose to world) after ``step`` simulation
-        steps, or None where nothing moves."""
+    def motion(self):
+        """The :class:`~es2particles.render.meshes.Motion` of the moving meshes (rest pose to
+        world over time), or None where nothing moves."""
         return None
 
-    def renderer_options(self):
-        """Extra keyword arguments of the sprite renderer (blend, sprite, ...)."""
-        return {}
+    def model_at(self, step):
+        """The moving meshes' model matrix (4x4) after ``step`` simulation steps, or None."""
+        motion = self.motion()
+        return None if motion is None else motion.matrix(step)
 
     # -- carried out by the framework ------------------------------------------------------
 

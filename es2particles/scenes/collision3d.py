@@ -126,13 +126,6 @@ class Physics3D:
         return np.zeros(3), self.spin_rate * t, np.zeros(3)
 
 
-def rotation(axis, angle):
-    """3x3 rotation about a unit axis (Rodrigues), the twin of ``rotate``."""
-    k = np.asarray(axis, float)
-    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) * np.cos(angle) + cross * np.sin(angle) + np.outer(k, k) * (1 - np.cos(angle))
-
-
 def parse_field_format(text):
     """None for an uncompressed field format, else the ASTC block (w, h) of ``astcWxH``."""
     from ..fields.astc import BLOCKS
@@ -150,8 +143,6 @@ class Collision3D(Scene):
     """Particles falling on an object (a voxel field; it may move) and the floor, in 3D."""
 
     name = "collision3d"
-    render = "sprites"
-    render_reads = ("position", "life")
 
     def __init__(self, shape=DEFAULT_SHAPE, physics=Physics3D(), field_resolution=64,
                  field_format="rgba8", camera="fixed", field=None):
@@ -263,23 +254,22 @@ class Collision3D(Scene):
                 "u_sway": tuple(map(float, p.sway)),
                 **f.uniforms(max_size, block)}
 
-    def graph(self, max_size=None):
-        """The passes; the atlas fits ``max_size`` texels a side (default the current context's
-        largest texture, else 4096)."""
+    def graph(self, caps=None):
+        """The passes; the atlas fits the context's largest texture (``caps``; None: 4096 and no
+        ASTC) and the field is ASTC-compressed where the context decodes it and astcenc encodes
+        it (else uncompressed, and the plan says why)."""
         from ..fields import astc
-        from ..gl.context import Context
 
-        if max_size is None:
-            current = Context._current
-            max_size = current.caps.max_texture_size if current is not None else 4096
-
+        max_size = caps.max_texture_size if caps is not None else 4096
+        missing = (astc.unavailable(caps) if caps is not None else "no context to ask") \
+            if self.block is not None else None
         p = self.physics
         g = PassGraph()
         g.quantity("position", (-FLOOR_HALF, -1.0, -FLOOR_HALF), (FLOOR_HALF, HEIGHT, FLOOR_HALF))
         g.quantity("velocity", -p.max_speed, p.max_speed, components=3)
         g.quantity("life", *life_range(p.dt), storage="rgba8")
         defines = {"MAX_SUBSTEPS": self.max_substeps}
-        if self.block is not None and self.astc_missing() is None:
+        if self.block is not None and missing is None:
             texels = self.field.texels("smooth", max_size, self.block)
             g.texture("field", astc.compress(texels, self.block))
             defines["FIELD_SMOOTH"] = None
@@ -290,20 +280,13 @@ class Collision3D(Scene):
             defines.update({"float": {"FIELD_FLOAT": None}, "smooth": {"FIELD_SMOOTH": None},
                             "packed": {}}[encoding])
             uniforms = self.uniforms(max_size, (1, 1))
+            if missing:
+                g.notes.append(f"ASTC: {missing}; the field runs uncompressed (rgba8)")
         state = ("position", "velocity", "life")
         for name in state:
             g.add(name, "collision3d.frag", writes=name, reads=state, textures=["field"],
                   uniforms=uniforms, defines={**defines, f"WRITE_{name.upper()}": None})
         return g
-
-    def astc_missing(self):
-        """None where the current context can decode ASTC and astcenc can encode it, else why."""
-        from ..fields import astc
-        from ..gl.context import Context
-
-        if Context._current is None:
-            return "no GL context to ask"
-        return astc.unavailable(Context._current)
 
     def start(self, count, rng):
         p = self.physics
@@ -313,21 +296,21 @@ class Collision3D(Scene):
     # -- drawing -------------------------------------------------------------------------------
 
     def meshes(self):
-        from ..render import sprites
+        from ..render import meshes as shapes
 
-        meshes = [sprites.floor(FLOOR_HALF, cell=0.5)]
+        meshes = [shapes.floor(FLOOR_HALF, cell=0.5)]
         colour = (0.72, 0.45, 0.30)
         for s in self.field.shapes:
             if isinstance(s, Sphere):
-                mesh = sprites.sphere(s.centre, s.radius, colour)
+                mesh = shapes.sphere(s.centre, s.radius, colour)
             elif isinstance(s, Box):
-                mesh = sprites.box(s.centre, s.half_size, colour)
+                mesh = shapes.box(s.centre, s.half_size, colour)
             elif isinstance(s, Capsule):
-                mesh = sprites.capsule(s.a, s.b, s.radius, colour)
+                mesh = shapes.capsule(s.a, s.b, s.radius, colour)
             elif isinstance(s, Torus):
-                mesh = sprites.torus(s.centre, s.major, s.minor, colour=colour)
+                mesh = shapes.torus(s.centre, s.major, s.minor, colour=colour)
             else:
-                mesh = sprites.from_triangles(s.vertices, s.faces, colour)
+                mesh = shapes.from_triangles(s.vertices, s.faces, colour)
             meshes.append(mesh)
         # Meshes are given in world units at rest; the model matrix carries them to the pose.
         if self.moves or self.physics.scale != 1:
@@ -336,25 +319,30 @@ class Collision3D(Scene):
             meshes[1:] = [replace(m, moves=True) for m in meshes[1:]]
         return meshes
 
-    def model_at(self, step):
-        """The object's model matrix after ``step`` steps (rest pose to world), 4x4."""
-        p, f = self.physics, self.field
-        offset, angle, _ = p.pose(step * p.dt)
-        m = np.eye(4)
-        m[:3, :3] = rotation(p.spin_axis, angle) * p.scale
-        m[:3, 3] = f.pivot + offset - m[:3, :3] @ f.pivot
-        return m
+    def motion(self):
+        """The object's motion: its spin about the field's pivot, its sway and its scale."""
+        from ..render.meshes import Motion
+
+        p = self.physics
+        if not (self.moves or p.scale != 1):
+            return None
+        return Motion(p.dt, pivot=tuple(map(float, self.field.pivot)),
+                      axis=tuple(map(float, p.spin_axis)), rate=float(p.spin_rate),
+                      sway=tuple(map(float, p.sway[:3])), period=float(p.sway[3]),
+                      scale=float(p.scale))
 
     def camera_at(self, frame, frames):
         if self.camera == "orbit":
             return orbit(frame, frames, radius=6.5, height=3.2, target=(0.0, 1.0, 0.0))
         return Camera(eye=(0.0, 3.2, 6.5), target=(0.0, 1.0, 0.0))
 
-    def renderer_options(self):
+    def rendering(self):
+        from ..render.sprites import Sprites
+
         d0 = np.linalg.norm(np.subtract((0.0, 3.2, 6.5), (0.0, 1.0, 0.0)))
-        return {"blend": "over", "sprite": "disc", "size_spread": 0.3,
-                "attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "tint": (0.75, 0.85, 1.0, 0.8),
-                "opacity": 0.9}
+        return Sprites(sprite="disc", size_spread=0.3, attenuation=(0.0, 0.0, 1.0 / d0 ** 2),
+                       blend="over", tint=(0.75, 0.85, 1.0, 0.8), opacity=0.9,
+                       meshes=self.meshes())
 
     def describe(self):
         p, f = self.physics, self.field
@@ -369,8 +357,6 @@ class Collision3D(Scene):
                  + (f"; object spins {p.spin[0]:g} deg/s" if p.spin[0] else "")
                  + (f"; sways {p.sway[:3]} over {p.sway[3]:g} s" if p.sway[3] else ""),
                  "no acceleration pass: the forces are uniforms evaluated at every sub-step"]
-        if self.block is not None and self.astc_missing():
-            lines.append(f"ASTC: {self.astc_missing()}; the field runs uncompressed (rgba8)")
         return lines
 
     def measured(self, ctx):

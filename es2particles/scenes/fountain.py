@@ -15,7 +15,8 @@ import numpy as np
 from ..render.camera import Camera, orbit
 from ..errors import ParameterError, check_range
 from ..frame.graph import PassGraph
-from ..render.sprites import box, crate_texture, floor
+from ..render.meshes import box, crate_texture, floor
+from ..render.sprites import Sprites
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Defaults, Scene, steady_steps
 
@@ -100,8 +101,6 @@ class Fountain(Scene):
     """The JOGL chapter's fountain of fireballs, in 3D."""
 
     name = "fountain"
-    render = "sprites"
-    render_reads = ("position", "life")
 
     def __init__(self, physics=FountainPhysics(), camera="fixed", blend="add", sprite="fireball",
                  size_spread=0.5):
@@ -154,7 +153,7 @@ class Fountain(Scene):
                                   lifetime=tuple(args.lifetime), emitters=emitters)
         return cls(physics, args.camera, args.blend, args.sprite)
 
-    def graph(self):
+    def graph(self, caps=None):
         p = self.physics
         g = PassGraph()
         g.quantity("position", (-FLOOR_HALF, -1.0, -FLOOR_HALF), (FLOOR_HALF, HEIGHT, FLOOR_HALF))
@@ -186,13 +185,13 @@ class Fountain(Scene):
             return orbit(frame, frames, radius=7.5, height=3.0, target=(0.0, 1.4, 0.0))
         return Camera(eye=(0.0, 3.0, 7.5), target=(0.0, 1.4, 0.0))
 
-    def renderer_options(self):
+    def rendering(self):
         # Point size is the size at the fixed camera's distance to the fountain (the seed scales
         # sizes by the camera's squared distance relative to its first): 1 / d^2 attenuation.
         d0 = np.linalg.norm(np.subtract(self.camera_at(0, 1).eye, (0.0, 1.4, 0.0)))
-        return {"blend": self.blend, "sprite": self.sprite, "size_spread": self.size_spread,
-                "attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "tint": (1.0, 0.12, 0.04, 0.45),
-                "opacity": 0.7}
+        return Sprites(sprite=self.sprite, size_spread=self.size_spread,
+                       attenuation=(0.0, 0.0, 1.0 / d0 ** 2), blend=self.blend,
+                       tint=(1.0, 0.12, 0.04, 0.45), opacity=0.7, meshes=self.meshes())
 
     def describe(self):
         p = self.physics

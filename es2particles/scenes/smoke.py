@@ -120,8 +120,6 @@ class Smoke(Scene):
     """Smoke curling around a moving sphere, sorted and self-shadowed."""
 
     name = "smoke"
-    render = "sprites"
-    render_reads = ("position", "life")
 
     def __init__(self, physics=SmokePhysics(), colour=(0.82, 0.84, 0.88), light=(-3.0, 8.0, 3.0),
                  shadows=True, sort="full", camera="fixed", opacity=0.35):
@@ -205,7 +203,7 @@ class Smoke(Scene):
         return cls(physics, numbers("colour", 3), numbers("light", 3), args.shadows == "on", sort,
                    args.camera, args.opacity)
 
-    def graph(self):
+    def graph(self, caps=None):
         p = self.physics
         g = PassGraph()
         g.quantity("position", (-HALF, LOW, -HALF), (HALF, HIGH, HALF))
@@ -242,18 +240,19 @@ class Smoke(Scene):
     # -- drawing -------------------------------------------------------------------------------
 
     def meshes(self):
-        from ..render import sprites
+        from ..render import meshes as shapes
 
         p = self.physics
-        ball = sprites.sphere((0.0, 0.0, 0.0), p.sphere[3], colour=(0.35, 0.62, 0.36))
-        return [sprites.floor(HALF, cell=0.5), replace(ball, moves=True)]
+        ball = shapes.sphere((0.0, 0.0, 0.0), p.sphere[3], colour=(0.35, 0.62, 0.36))
+        return [shapes.floor(HALF, cell=0.5), replace(ball, moves=True)]
 
-    def model_at(self, step):
-        from ..twins.smoke import sphere
+    def motion(self):
+        """The sphere's sway about its rest centre (``twins/smoke.py``: ``sphere``)."""
+        from ..render.meshes import Motion
 
-        m = np.eye(4)
-        m[:3, 3] = sphere(self.physics, step * self.physics.dt)[0]
-        return m
+        p = self.physics
+        return Motion(p.dt, offset=tuple(map(float, p.sphere[:3])),
+                      sway=tuple(map(float, p.sway[:3])), period=float(p.sway[3]))
 
     def camera_at(self, frame, frames):
         if self.camera == "orbit":
@@ -261,13 +260,15 @@ class Smoke(Scene):
                          target=TARGET)
         return Camera(eye=EYE, target=TARGET)
 
-    def renderer_options(self):
+    def rendering(self):
+        from ..render.sprites import Sprites
+
         d0 = np.linalg.norm(np.subtract(EYE, TARGET))
-        return {"blend": "over", "sprite": "smoke", "size_spread": 0.35,
-                "attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "tint": (*self.colour, 1.0),
-                "opacity": self.opacity, "light": self.light, "background": (0.11, 0.12, 0.15),
-                "sort": None if self.sort == "off" else self.sort, "shadow": self.shadow,
-                "growth": 2.5}
+        return Sprites(sprite="smoke", size_spread=0.35, attenuation=(0.0, 0.0, 1.0 / d0 ** 2),
+                       blend="over", tint=(*self.colour, 1.0), opacity=self.opacity,
+                       light=self.light, background=(0.11, 0.12, 0.15),
+                       sort=None if self.sort == "off" else self.sort, shadow=self.shadow,
+                       growth=2.5, meshes=self.meshes())
 
     def describe(self):
         p = self.physics

@@ -5,7 +5,7 @@ the report's independent reference (no emission: tests keep lifetimes long)."""
 
 import numpy as np
 
-from ..scenes.collision3d import rotation
+from .motion import rotation
 from .drag import exact_drag
 from .life import hash44
 

@@ -1,9 +1,12 @@
-// The es2particles executor of a WebGL 1 page: runs the plan that es2particles/export.py wrote
-// into this page (state textures, passes, points, post stages) with the same GLSL ES 1.00
-// sources the EGL run compiles. No network: everything it needs is in the page.
+// The es2particles executor of a WebGL 1 page: runs the frame plan that es2particles/export/page.py
+// wrote into this page, stage by stage, as the EGL executor (es2particles/frame/executor.py) runs
+// it: every resource made once (state, images, targets, vertex data), then each step's passes and
+// each frame's stages drawn in order with the same GLSL ES 1.00 sources the EGL run compiles.
+// No network: everything it needs is in the page.
 //
 // window.es2particles is its interface for tests and the console: step(n), state(name, part),
-// density(), image(), and what the context offers (facts).
+// resource(name, part), density(), image(), orbit(dx, dy), zoom(factor), and what the context
+// offers (facts).
 "use strict";
 (function () {
   const plan = JSON.parse(document.getElementById("es2particles-plan").textContent);
@@ -49,9 +52,10 @@
   const vertexUnits = gl.getParameter(gl.MAX_VERTEX_TEXTURE_IMAGE_UNITS);
   const highp = gl.getShaderPrecisionFormat(gl.FRAGMENT_SHADER, gl.HIGH_FLOAT).precision;
   const maxTexture = gl.getParameter(gl.MAX_TEXTURE_SIZE);
-  const pointSizes = gl.getParameter(gl.ALIASED_POINT_SIZE_RANGE);
+  const pointRange = Array.from(gl.getParameter(gl.ALIASED_POINT_SIZE_RANGE));
   show("vertex texture units", vertexUnits);
   show("fragment highp", highp > 0 ? `yes (${highp}-bit significand)` : "no");
+  show("point size range", `${pointRange[0]}..${pointRange[1]}`);
   const missing = [];
   if (vertexUnits < 1) {
     missing.push("vertex texture fetch: MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0, so the vertex " +
@@ -61,24 +65,27 @@
     missing.push("highp float in fragment shaders: the 16-bit packed state and the passes' " +
                  "arithmetic need it");
   }
-  const side = Math.max(plan.layout.width, plan.layout.height, width, height);
+  const side = Math.max(width, height,
+                        ...Object.values(plan.resources).map((r) => Math.max(r.width, r.height)));
   if (side > maxTexture) {
     missing.push(`textures ${side} texels wide: this context's limit is ${maxTexture}`);
   }
-  const pointSize = plan.points.uniforms.u_point_size[0];
-  if (pointSize > pointSizes[1]) {
-    missing.push(`points of ${pointSize} pixels: this context's largest is ${pointSizes[1]}`);
+  for (const stage of plan.stages) {
+    const size = stage.uniforms.u_point_size;
+    if (size !== undefined && size[0] > pointRange[1]) {
+      missing.push(`points of ${size[0]} pixels: this context's largest is ${pointRange[1]}`);
+    }
   }
-  const floatTextures = Object.values(plan.textures).some((t) => t.type === "float");
-  if (floatTextures && !gl.getExtension("OES_texture_float")) {
-    missing.push("OES_texture_float: the scene samples float textures");
-  }
+  const floatTexture = gl.getExtension("OES_texture_float");
+  const halfTexture = gl.getExtension("OES_texture_half_float");
+  const usesFloat = Object.values(plan.resources).some((r) => r.type === "float");
+  if (usesFloat && !floatTexture) missing.push("OES_texture_float: the scene samples float textures");
   if (missing.length) {
     fail("This context lacks what the scene needs (the ES 2.0 article's requirements):\n- " +
          missing.join("\n- "));
   }
 
-  // -- textures and framebuffers: made once ----------------------------------------------------
+  // -- textures, framebuffers and formats --------------------------------------------------------
   function texture(w, h, type, linear, data) {
     const t = gl.createTexture();
     gl.bindTexture(gl.TEXTURE_2D, t);
@@ -92,13 +99,22 @@
     return { texture: t, width: w, height: h, type, framebuffer: null };
   }
 
-  function target(t) {
+  function target(t, depth) {
     t.framebuffer = gl.createFramebuffer();
     gl.bindFramebuffer(gl.FRAMEBUFFER, t.framebuffer);
     gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, t.texture, 0);
+    if (depth) {
+      gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+      gl.framebufferRenderbuffer(gl.FRAMEBUFFER, gl.DEPTH_ATTACHMENT, gl.RENDERBUFFER, depth);
+    }
     const complete = gl.checkFramebufferStatus(gl.FRAMEBUFFER) === gl.FRAMEBUFFER_COMPLETE;
     gl.bindFramebuffer(gl.FRAMEBUFFER, null);
     return complete ? t : null;
+  }
+
+  function made(t, what) {
+    if (t === null) fail(`${what}: the context cannot render into it`);
+    return t;
   }
 
   function bytes(base64) {
@@ -117,7 +133,6 @@
     return btoa(text);
   }
 
-  // -- the density path: the first the context offers, or the one the address asks for --------
   function renders(type) {  // a small target of this type, made and deleted again
     const probe = texture(4, 4, type, false);
     const complete = target(probe) !== null;
@@ -126,15 +141,15 @@
     return complete;
   }
 
-  const halfFloat = gl.getExtension("OES_texture_half_float");
-  const offers = {
-    float: () => gl.getExtension("OES_texture_float") &&
-                 gl.getExtension("WEBGL_color_buffer_float") &&
-                 gl.getExtension("EXT_float_blend") && renders(gl.FLOAT),
-    half: () => halfFloat && gl.getExtension("EXT_color_buffer_half_float") &&
-                renders(halfFloat.HALF_FLOAT_OES),
-    bytes: () => true,
+  const TYPES = {  // format -> the texture type, where the context can render and blend into it
+    rgba8: () => gl.UNSIGNED_BYTE,
+    rgba32f: () => floatTexture && gl.getExtension("WEBGL_color_buffer_float") &&
+                   gl.getExtension("EXT_float_blend") && renders(gl.FLOAT) ? gl.FLOAT : null,
+    rgba16f: () => halfTexture && gl.getExtension("EXT_color_buffer_half_float") &&
+                   renders(halfTexture.HALF_FLOAT_OES) ? halfTexture.HALF_FLOAT_OES : null,
   };
+
+  // -- the density path: the first the context offers, or the one the address asks for --------
   const HOW = {
     float: "float: additive points into RGBA32F (WEBGL_color_buffer_float, EXT_float_blend)",
     half: "half: batches of points into RGBA16F (EXT_color_buffer_half_float), added to an " +
@@ -142,19 +157,26 @@
     bytes: "bytes: batches of points into RGBA8, a quarter of each per channel, added to an " +
            "exact count in RGBA8 (no extension)",
   };
-  const asked = params.get("density");
-  if (asked !== null && !plan.density.paths.includes(asked)) {
-    fail(`density=${asked}: the paths are ${plan.density.paths.join(", ")}`);
+  let path = null;
+  if (plan.density) {
+    const offers = { float: () => TYPES.rgba32f() !== null, half: () => TYPES.rgba16f() !== null,
+                     bytes: () => true };
+    const asked = params.get("density");
+    if (asked !== null && !plan.density.paths.includes(asked)) {
+      fail(`density=${asked}: the paths are ${plan.density.paths.join(", ")}`);
+    }
+    path = (asked !== null ? [asked] : plan.density.paths).find((name) => offers[name]());
+    if (path === undefined) fail(`density=${asked}: this context does not offer it`);
+    show("density", HOW[path] + (asked !== null ? " (asked for)" : ""));
   }
-  const path = (asked !== null ? [asked] : plan.density.paths).find((name) => offers[name]());
-  if (path === undefined) fail(`density=${asked}: this context does not offer it`);
-  show("density", HOW[path] + (asked !== null ? " (asked for)" : ""));
   // A hit adds `levels` codes (fading points fewer); a code is 1/255 of a byte or 1.0 of a half.
-  const levels = plan.points.fade && path !== "float" ? plan.density.fade_levels[path] : 1;
+  const levels = plan.density && plan.density.fade && path !== "float"
+    ? plan.density.fade_levels[path] : 1;
   const code = path === "bytes" ? 1 / 255 : 1;
 
   // -- programs --------------------------------------------------------------------------------
-  const SIZES = { [gl.FLOAT]: 1, [gl.FLOAT_VEC2]: 2, [gl.FLOAT_VEC3]: 3, [gl.FLOAT_VEC4]: 4 };
+  const SIZES = { [gl.FLOAT]: 1, [gl.FLOAT_VEC2]: 2, [gl.FLOAT_VEC3]: 3, [gl.FLOAT_VEC4]: 4,
+                  [gl.FLOAT_MAT4]: 16 };
   const SETTERS = { 1: "uniform1fv", 2: "uniform2fv", 3: "uniform3fv", 4: "uniform4fv" };
 
   function shader(kind, source, name, file) {
@@ -171,8 +193,6 @@
     const program = gl.createProgram();
     gl.attachShader(program, shader(gl.VERTEX_SHADER, p.vertex, p.name, p.files[0]));
     gl.attachShader(program, shader(gl.FRAGMENT_SHADER, p.fragment, p.name, p.files[1]));
-    gl.bindAttribLocation(program, 0, "a_position");  // each program has one attribute
-    gl.bindAttribLocation(program, 0, "a_texel");
     gl.linkProgram(program);
     if (!gl.getProgramParameter(program, gl.LINK_STATUS)) {
       fail(`${p.name}: linking failed:\n${gl.getProgramInfoLog(program)}`);
@@ -186,6 +206,13 @@
     }
     const samplers = Object.keys(uniforms).filter((n) => uniforms[n].type === gl.SAMPLER_2D);
     samplers.sort();
+    // The vertex shader's samplers each take a vertex texture unit (ES 2.0 promises none).
+    const vertexSamplers = samplers.filter((n) => new RegExp(`\\b${n}\\b`).test(
+      p.vertex.replace(/uniform[^;]*;/g, "")));
+    if (vertexSamplers.length > vertexUnits) {
+      fail(`${p.name}: its vertex shader samples ${vertexSamplers.length} textures; this ` +
+           `context allows ${vertexUnits} (MAX_VERTEX_TEXTURE_IMAGE_UNITS)`);
+    }
     gl.useProgram(program);
     samplers.forEach((name, unit) => gl.uniform1i(uniforms[name].location, unit));
     return { program, name: p.name, uniforms, samplers };
@@ -199,7 +226,9 @@
       const u = p.uniforms[name];
       if (u === undefined) continue;
       const size = SIZES[u.type];
-      gl[SETTERS[size]](u.location, new Float32Array(value.slice(0, size * u.size)));
+      const data = new Float32Array(value.slice(0, size * u.size));
+      if (u.type === gl.FLOAT_MAT4) gl.uniformMatrix4fv(u.location, false, data);
+      else gl[SETTERS[size]](u.location, data);
     }
     p.samplers.forEach((name, unit) => {
       const t = textures[name];
@@ -209,186 +238,388 @@
     });
   }
 
-  const triangle = gl.createBuffer();
-  gl.bindBuffer(gl.ARRAY_BUFFER, triangle);
+  // -- vertex data -------------------------------------------------------------------------------
+  const triangle = { buffer: gl.createBuffer(), attributes: [["a_position", 2]] };
+  gl.bindBuffer(gl.ARRAY_BUFFER, triangle.buffer);
   gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
-  // Each particle's texel centre, row by row: the vertex shader's index (ES 1.00 has no
-  // gl_VertexID). Rounded to float32 as numpy's Layout.texel_uv rounds it.
-  const L = plan.layout;
-  const texels = new Float32Array(2 * L.count);
-  for (let i = 0; i < L.count; i += 1) {
-    texels[2 * i] = ((i % L.width) + 0.5) / L.width;
-    texels[2 * i + 1] = (Math.floor(i / L.width) + 0.5) / L.height;
-  }
-  const texelBuffer = gl.createBuffer();
-  gl.bindBuffer(gl.ARRAY_BUFFER, texelBuffer);
-  gl.bufferData(gl.ARRAY_BUFFER, texels, gl.STATIC_DRAW);
-
-  function attribute(buffer) {
+  const vertexData = {};
+  for (const [name, v] of Object.entries(plan.vertices)) {
+    let data;
+    if (v.source === "texels") {
+      // Each cell's texel centre, row by row: the vertex shader's index (ES 1.00 has no
+      // gl_VertexID). Rounded to float32 as numpy's Layout.texel_uv rounds it.
+      data = new Float32Array(2 * v.count);
+      for (let i = 0; i < v.count; i += 1) {
+        data[2 * i] = ((i % v.width) + 0.5) / v.width;
+        data[2 * i + 1] = (Math.floor(i / v.width) + 0.5) / v.height;
+      }
+    } else {
+      data = new Float32Array(bytes(v.data).buffer);
+    }
+    const buffer = gl.createBuffer();
     gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
-    gl.enableVertexAttribArray(0);
-    gl.vertexAttribPointer(0, 2, gl.FLOAT, false, 0, 0);
+    gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
+    vertexData[name] = { buffer, attributes: v.attributes, count: v.count };
   }
 
-  function fullscreen(t) {
-    gl.bindFramebuffer(gl.FRAMEBUFFER, t === null ? null : t.framebuffer);
-    gl.viewport(0, 0, t === null ? width : t.width, t === null ? height : t.height);
-    attribute(triangle);
-    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  let enabled = [];
+  function attributes(p, vertices) {
+    for (const location of enabled) gl.disableVertexAttribArray(location);
+    enabled = [];
+    gl.bindBuffer(gl.ARRAY_BUFFER, vertices.buffer);
+    const stride = 4 * vertices.attributes.reduce((sum, [, n]) => sum + n, 0);
+    let offset = 0;
+    for (const [name, n] of vertices.attributes) {
+      const location = gl.getAttribLocation(p.program, name);
+      if (location >= 0) {
+        gl.enableVertexAttribArray(location);
+        gl.vertexAttribPointer(location, n, gl.FLOAT, false, stride, offset);
+        enabled.push(location);
+      }
+      offset += 4 * n;
+    }
   }
 
-  function made(t, what) {
-    if (t === null) fail(`${what}: the context cannot render into it`);
-    return t;
-  }
-
-  // -- state: each part of each quantity, twice where last step's value is read ----------------
-  const state = {};
-  for (const [name, q] of Object.entries(plan.quantities)) {
-    const parts = q.parts !== undefined ? q.parts.map(bytes) : q.clear.map((texel) => {
-      const data = new Uint8Array(4 * L.width * L.height);
-      for (let i = 0; i < data.length; i += 4) data.set(texel, i);
-      return data;
-    });
-    state[name] = parts.map((data, part) => Array.from({ length: q.buffers }, () =>
-      made(target(texture(L.width, L.height, gl.UNSIGNED_BYTE, false, data)),
-           `state ${name} part ${part + 1}`)));
-  }
-  const sceneTextures = {};
-  for (const [name, t] of Object.entries(plan.textures)) {
-    const data = bytes(t.data);
-    sceneTextures[name] = t.type === "float"
-      ? texture(t.width, t.height, gl.FLOAT, false, new Float32Array(data.buffer))
-      : texture(t.width, t.height, gl.UNSIGNED_BYTE, false, data);
-  }
-  const fixed = {};
-  for (const [name, t] of Object.entries(plan.fixed)) {
-    fixed[name] = texture(t.width, t.height, gl.UNSIGNED_BYTE, true, bytes(t.data));
-  }
-
-  // -- one step: every pass in the plan's order, then the ping-pong swap -----------------------
-  const live = {};  // uniform -> values the sliders set
-  let stepsDone = 0;
-
-  function step() {
-    for (const pass of plan.passes) {
-      const textures = {};
-      for (const [sampler, input] of Object.entries(pass.inputs)) {
-        if (input[0] === "quantity") {
-          const pair = state[input[1]][input[2]];
-          textures[sampler] = input[3] ? pair[pair.length - 1] : pair[0];
-        } else {
-          textures[sampler] = sceneTextures[input[1]];
+  // -- resources: state, images and targets, made once ------------------------------------------
+  const uniformsOf = {};  // a fallback format's uniforms, for every stage that sets them
+  const resources = {};
+  for (const [name, r] of Object.entries(plan.resources)) {
+    const texels = r.width * r.height;
+    if (r.kind === "state") {
+      const parts = r.parts_data !== undefined ? r.parts_data.map(bytes) : r.clear.map((t) => {
+        const data = new Uint8Array(4 * texels);
+        for (let i = 0; i < data.length; i += 4) data.set(t, i);
+        return data;
+      });
+      resources[name] = parts.map((data, part) => Array.from({ length: r.buffers }, () =>
+        made(target(texture(r.width, r.height, gl.UNSIGNED_BYTE, false, data)),
+             `state ${name} part ${part + 1}`)));
+    } else if (r.kind === "image") {
+      const astc = r.astc && gl.getExtension("WEBGL_compressed_texture_astc");
+      let t;
+      if (astc) {
+        t = texture(r.width, r.height, gl.UNSIGNED_BYTE, r.linear);
+        gl.compressedTexImage2D(gl.TEXTURE_2D, 0, r.astc.internal_format, r.width, r.height, 0,
+                                bytes(r.astc.data));
+      } else if (r.type === "float") {
+        t = texture(r.width, r.height, gl.FLOAT, r.linear, new Float32Array(bytes(r.data).buffer));
+      } else {
+        t = texture(r.width, r.height, gl.UNSIGNED_BYTE, r.linear, bytes(r.data));
+      }
+      if (r.astc) {
+        show(`texture ${name}`, astc ? `ASTC ${r.astc.block.join("x")} blocks, as compressed`
+          : "ASTC blocks decoded before upload: this context offers no " +
+            "WEBGL_compressed_texture_astc, so the texels they decode to are sent");
+      }
+      resources[name] = [[t]];
+    } else if (plan.density && name === "density") {
+      resources[name] = null;  // the density path's own textures, below
+    } else {
+      let type = null;
+      let format = r.format;
+      for (const option of r.fallbacks || [{ format: r.format }]) {
+        type = TYPES[option.format] ? TYPES[option.format]() : null;
+        if (type !== null) {
+          format = option.format;
+          if (option.uniforms) Object.assign(uniformsOf, option.uniforms);
+          break;
         }
       }
-      const values = { ...pass.uniforms, u_step: [stepsDone] };
-      for (const name of Object.keys(live)) if (name in pass.uniforms) values[name] = live[name];
-      use(programs[pass.program], values, textures);
-      const pair = state[pass.writes[0]][pass.writes[1]];
-      fullscreen(pair[pair.length - 1]);
+      if (type === null) fail(`target ${name}: this context can render into none of its formats`);
+      if (format !== r.format) show(`target ${name}`, `${format} (the context has no ${r.format})`);
+      const depth = r.depth ? gl.createRenderbuffer() : null;
+      if (depth) {
+        gl.bindRenderbuffer(gl.RENDERBUFFER, depth);
+        gl.renderbufferStorage(gl.RENDERBUFFER, gl.DEPTH_COMPONENT16, r.width, r.height);
+      }
+      const start = r.data !== undefined ? (r.type === "float"
+        ? new Float32Array(bytes(r.data).buffer) : bytes(r.data)) : null;
+      resources[name] = Array.from({ length: r.parts }, () => Array.from(
+        { length: r.buffers }, (_, k) => made(target(texture(r.width, r.height, type, r.linear,
+                                                             k === 0 ? start : null), depth),
+                                              `target ${name}`)));
+      resources[name].depth = depth;
     }
-    for (const name of plan.swap) for (const pair of state[name]) pair.reverse();
-    stepsDone += 1;
   }
 
-  // -- density -----------------------------------------------------------------------------------
-  const points = programs[plan.points.program];
-  const density = {};
-  if (path === "float") {
-    density.sum = made(target(texture(width, height, gl.FLOAT, false)), "the RGBA32F density");
-  } else {
-    const type = path === "half" ? halfFloat.HALF_FLOAT_OES : gl.UNSIGNED_BYTE;
-    density.batch = made(target(texture(width, height, type, false)), "the density batch");
-    density.totals = [0, 1].map(() => made(
-      target(texture(width, height, gl.UNSIGNED_BYTE, false)), "the density count"));
+  function front(name, part = 0) {
+    return resources[name][part][0];
   }
 
-  function pointInputs() {
+  function back(name, part = 0) {
+    const pair = resources[name][part];
+    return pair[pair.length - 1];
+  }
+
+  function swap(name) {
+    for (const pair of resources[name]) pair.reverse();
+  }
+
+  // -- the camera: the plan's, then the mouse's ---------------------------------------------------
+  const camera = plan.camera && (() => {
+    const c = plan.camera;
+    const sub = (a, b) => a.map((v, i) => v - b[i]);
+    const dot = (a, b) => a.reduce((s, v, i) => s + v * b[i], 0);
+    const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                             a[0] * b[1] - a[1] * b[0]];
+    const unit = (a) => { const n = Math.hypot(...a); return a.map((v) => v / n); };
+    const offset = sub(c.eye, c.target);
+    const state = {
+      moved: false, radius: Math.hypot(...offset),
+      azimuth: Math.atan2(offset[0], offset[2]),
+      elevation: Math.asin(offset[1] / Math.hypot(...offset)),
+    };
+    function eye() {
+      if (!state.moved) return c.eye;
+      const r = state.radius, e = state.elevation, a = state.azimuth;
+      return [c.target[0] + r * Math.cos(e) * Math.sin(a), c.target[1] + r * Math.sin(e),
+              c.target[2] + r * Math.cos(e) * Math.cos(a)];
+    }
+    function forward() { return unit(sub(c.target, eye())); }
+    function focal(h) { return h / 2 / Math.tan(c.fov * Math.PI / 360); }
+    function viewProjection(aspect) {  // column-major, as camera.py's uniform
+      const e = eye(), f = forward(), s = unit(cross(f, c.up)), u = cross(s, f);
+      const view = [[...s, -dot(s, e)], [...u, -dot(u, e)], [-f[0], -f[1], -f[2], dot(f, e)],
+                    [0, 0, 0, 1]];
+      const t = 1 / Math.tan(c.fov * Math.PI / 360), n = c.near, far = c.far;
+      const p = [[t / aspect, 0, 0, 0], [0, t, 0, 0],
+                 [0, 0, (far + n) / (n - far), 2 * far * n / (n - far)], [0, 0, -1, 0]];
+      const out = [];
+      for (let col = 0; col < 4; col += 1) {
+        for (let row = 0; row < 4; row += 1) {
+          out.push(p[row].reduce((sum, v, k) => sum + v * view[k][col], 0));
+        }
+      }
+      return out;
+    }
+    function depthRange(lo, hi) {
+      const e = eye(), f = forward();
+      let near = Infinity, far = -Infinity;
+      for (let corner = 0; corner < 8; corner += 1) {
+        const p = [0, 1, 2].map((a) => ((corner >> a) & 1 ? hi : lo)[a]);
+        const d = dot(sub(p, e), f);
+        near = Math.min(near, d);
+        far = Math.max(far, d);
+      }
+      return [far, 1 / Math.max(far - near, 1e-30)];
+    }
+    return {
+      state, eye, forward, focal, viewProjection, depthRange,
+      orbit(dx, dy) {
+        state.moved = true;
+        state.azimuth -= dx * 0.01;
+        state.elevation = Math.max(-1.45, Math.min(1.45, state.elevation + dy * 0.01));
+      },
+      zoom(factor) {
+        state.moved = true;
+        state.radius = Math.max(0.5, Math.min(50, state.radius * factor));
+      },
+    };
+  })();
+
+  // The moving object's model matrix after `step` steps (render/meshes.py: Motion), column-major.
+  function model(step) {
+    const m = plan.motion;
+    const t = step * m.dt;
+    const angle = m.rate * t;
+    const [x, y, z] = m.axis;
+    const c = Math.cos(angle), s = Math.sin(angle), k = 1 - c;
+    const r = [[c + x * x * k, x * y * k - z * s, x * z * k + y * s],
+               [y * x * k + z * s, c + y * y * k, y * z * k - x * s],
+               [z * x * k - y * s, z * y * k + x * s, c + z * z * k]].map(
+      (row) => row.map((v) => v * m.scale));
+    const sway = m.period > 0 ? Math.sin(2 * Math.PI / m.period * t) : 0;
+    const out = new Array(16).fill(0);
+    for (let i = 0; i < 3; i += 1) {
+      for (let j = 0; j < 3; j += 1) out[4 * j + i] = r[i][j];
+      const turned = r[i][0] * m.pivot[0] + r[i][1] * m.pivot[1] + r[i][2] * m.pivot[2];
+      out[12 + i] = m.offset[i] + m.pivot[i] + m.sway[i] * sway - turned;
+    }
+    out[15] = 1;
+    return out;
+  }
+
+  let stepsDone = 0;
+  function frameValue(stage, name, spec, aspect) {
+    const initial = stage.initial[name];
+    const exact = initial !== undefined && camera && !camera.state.moved;
+    switch (spec[0]) {
+      case "step": return [stepsDone];
+      case "model": return plan.motion ? model(stepsDone) :
+        [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+      case "sprite_size": return [spec[1], spec[2], ...pointRange];
+      case "light_size": {
+        const size = exact ? initial[0] : spec[1] / camera.focal(spec[4]) * spec[2];
+        return [size, spec[3], ...pointRange];
+      }
+      case "view_projection": return exact ? initial : camera.viewProjection(aspect);
+      case "eye": return exact ? initial : camera.eye();
+      case "forward": return exact ? initial : camera.forward();
+      case "depth_range": return exact ? initial : camera.depthRange(spec[1], spec[2]);
+      default: return fail(`${stage.name}: unknown frame value ${spec[0]}`);
+    }
+  }
+
+  // -- running a stage: the same for every kind ---------------------------------------------------
+  const BLENDS = { add: () => gl.blendFunc(gl.ONE, gl.ONE),
+                   over: () => gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA) };
+  const live = {};  // uniform -> values the sliders set
+  const cursors = {};
+
+  function inputs(stage) {
     const textures = {};
-    for (const [sampler, input] of Object.entries(plan.points.inputs)) {
-      textures[sampler] = state[input[1]][input[2]][0];
+    for (const [sampler, [name, part, when]] of Object.entries(stage.inputs)) {
+      if (name === "density" && plan.density) textures[sampler] = densityTexture;
+      else textures[sampler] = when === "written" ? back(name, part) : front(name, part);
     }
     return textures;
   }
 
-  function clear(t) {
+  function bindTarget(t, clear, hasDepth) {
     gl.bindFramebuffer(gl.FRAMEBUFFER, t.framebuffer);
     gl.viewport(0, 0, t.width, t.height);
-    gl.clearColor(0, 0, 0, 0);
-    gl.clear(gl.COLOR_BUFFER_BIT);
+    if (clear) {
+      gl.clearColor(...clear);
+      gl.depthMask(true);
+      gl.clearDepth(1);
+      gl.clear(gl.COLOR_BUFFER_BIT | (hasDepth ? gl.DEPTH_BUFFER_BIT : 0));
+    }
   }
 
-  function drawPoints(t, first, count) {
-    gl.bindFramebuffer(gl.FRAMEBUFFER, t.framebuffer);
-    gl.viewport(0, 0, t.width, t.height);
-    attribute(texelBuffer);
-    gl.drawArrays(gl.POINTS, first, count);
+  function draw(stage, p, vertices, first, count) {
+    const state = stage.state;
+    if (state.blend) { gl.enable(gl.BLEND); BLENDS[state.blend](); }
+    if (state.depth_test) { gl.enable(gl.DEPTH_TEST); gl.depthMask(state.depth_write); }
+    attributes(p, vertices);
+    gl.drawArrays(stage.primitive === "points" ? gl.POINTS : gl.TRIANGLES, first, count);
+    gl.disable(gl.BLEND);
+    gl.disable(gl.DEPTH_TEST);
+    gl.depthMask(true);
   }
 
-  function renderDensity() {
-    const intensity = plan.intensity;
-    gl.blendFunc(gl.ONE, gl.ONE);
+  function values(stage, aspect) {
+    const out = { ...stage.uniforms };
+    for (const name of Object.keys(live)) if (name in out) out[name] = live[name];
+    for (const name of Object.keys(uniformsOf)) if (name in out) out[name] = uniformsOf[name];
+    for (const [name, spec] of Object.entries(stage.frame_uniforms)) {
+      out[name] = frameValue(stage, name, spec, aspect);
+    }
+    return out;
+  }
+
+  function run(stage) {
+    if (stage.kind === "points" && plan.density) return drawDensity(stage);
+    const [name, part] = stage.target;
+    const r = plan.resources[name];
+    const p = programs[stage.program];
+    const vertices = stage.vertices === null ? triangle : vertexData[stage.vertices];
+    const count = stage.vertices === null ? 3 : (stage.count === null ? vertices.count
+                                                                       : stage.count);
+    const base = values(stage, r.width / r.height);
+    const swaps = r.swap === "draw";
+    if (stage.clear) bindTarget(back(name, part), stage.clear, r.depth);
+    let draws = [null];
+    if (stage.repeat.length) {
+      const n = stage.repeat.length;
+      if (stage.per_frame === null || stage.per_frame >= n) {
+        draws = stage.repeat.map((_, i) => i);
+      } else {
+        const cursor = cursors[stage.name] || 0;
+        cursors[stage.name] = (cursor + stage.per_frame) % n;
+        draws = Array.from({ length: stage.per_frame }, (_, i) => (cursor + i) % n);
+      }
+    }
+    for (const index of draws) {
+      use(p, index === null ? base : { ...base, ...stage.repeat[index] }, inputs(stage));
+      bindTarget(back(name, part), null, r.depth);
+      draw(stage, p, vertices, 0, count);
+      if (swaps) swap(name);
+    }
+    return null;
+  }
+
+  // -- one step: every pass in the plan's order, then the ping-pong swap -----------------------
+  const stepStages = plan.stages.filter((s) => s.step);
+  const frameStages = plan.stages.filter((s) => !s.step);
+  const swapped = Object.entries(plan.resources).filter(([, r]) => r.swap === "step")
+    .map(([name]) => name);
+
+  function step() {
+    for (const stage of stepStages) run(stage);
+    for (const name of swapped) swap(name);
+    stepsDone += 1;
+  }
+
+  // -- the density of 2D scenes, by the path taken ----------------------------------------------
+  const density = {};
+  let densityTexture = null;
+  if (plan.density) {
     if (path === "float") {
-      clear(density.sum);
-      use(points, { ...plan.points.uniforms, u_colour: [intensity, intensity, intensity,
-                                                        intensity] }, pointInputs());
-      gl.enable(gl.BLEND);
-      drawPoints(density.sum, 0, L.count);
-      gl.disable(gl.BLEND);
-      return density.sum;
+      density.sum = made(target(texture(width, height, gl.FLOAT, false)), "the RGBA32F density");
+    } else {
+      const type = path === "half" ? halfTexture.HALF_FLOAT_OES : gl.UNSIGNED_BYTE;
+      density.batch = made(target(texture(width, height, type, false)), "the density batch");
+      density.totals = [0, 1].map(() => made(
+        target(texture(width, height, gl.UNSIGNED_BYTE, false)), "the density count"));
+    }
+  }
+
+  function drawDensity(stage) {
+    const p = programs[stage.program];
+    const vertices = vertexData[stage.vertices];
+    const count = stage.count;
+    const intensity = plan.density.intensity;
+    const base = values(stage, width / height);
+    if (path === "float") {
+      bindTarget(density.sum, [0, 0, 0, 0], false);
+      use(p, { ...base, u_colour: [intensity, intensity, intensity, intensity] }, inputs(stage));
+      draw(stage, p, vertices, 0, count);
+      densityTexture = density.sum;
+      return null;
     }
     const add = programs[plan.density.add];
     const batch = plan.density.batch[path];
     const quarter = Math.ceil(batch / 4);
     const hit = levels * code;
-    clear(density.totals[0]);
-    for (let first = 0; first < L.count; first += batch) {
-      clear(density.batch);
-      use(points, { ...plan.points.uniforms, u_colour: [hit, hit, hit, hit] }, pointInputs());
-      gl.enable(gl.BLEND);
+    bindTarget(density.totals[0], [0, 0, 0, 0], false);
+    for (let first = 0; first < count; first += batch) {
+      bindTarget(density.batch, [0, 0, 0, 0], false);
+      use(p, { ...base, u_colour: [hit, hit, hit, hit] }, inputs(stage));
       for (let channel = 0; channel < 4; channel += 1) {
         const start = first + channel * quarter;
-        const count = Math.min(quarter, L.count - start);
-        if (count <= 0) break;
+        const n = Math.min(quarter, count - start);
+        if (n <= 0) break;
         gl.colorMask(channel === 0, channel === 1, channel === 2, channel === 3);
-        drawPoints(density.batch, start, count);
+        bindTarget(density.batch, null, false);
+        draw(stage, p, vertices, start, n);
       }
       gl.colorMask(true, true, true, true);
-      gl.disable(gl.BLEND);
       use(add, { u_hit: [code], u_full: [path === "bytes" ? 255 : 2048] },
           { u_total: density.totals[0], u_batch: density.batch });
-      fullscreen(density.totals[1]);
+      bindTarget(density.totals[1], null, false);
+      draw({ state: {}, primitive: "triangles" }, add, triangle, 0, 3);
       density.totals.reverse();
     }
-    return density.totals[0];
+    densityTexture = density.totals[0];
+    return null;
   }
 
-  // -- post stages, then the canvas ------------------------------------------------------------
-  const post = plan.post.map((s) => made(target(texture(s.size[0], s.size[1], gl.UNSIGNED_BYTE,
-                                                        true)), `post stage ${s.name}`));
-
-  function renderPost(densityTexture) {
-    const textures = { ...fixed, density: densityTexture };
-    plan.post.forEach((s, i) => {
-      const counts = path !== "float" && s.program_counts !== undefined;
-      const inputs = {};
-      for (const [sampler, source] of Object.entries(s.inputs)) inputs[sampler] = textures[source];
-      const values = counts ? { ...s.uniforms, u_unit: [plan.intensity / levels] } : s.uniforms;
-      use(programs[counts ? s.program_counts : s.program], values, inputs);
-      fullscreen(post[i]);
-      textures[s.name] = post[i];
-    });
-    return post[post.length - 1];
+  // The tone map reads a whole count where the density is counted in bytes.
+  for (const stage of frameStages) {
+    if (stage.program_counts !== undefined && path !== null && path !== "float") {
+      stage.program = stage.program_counts;
+      stage.uniforms = { ...stage.uniforms, u_unit: [plan.density.intensity / levels] };
+    }
   }
 
-  let lastDensity = null;
-  let lastImage = null;
-
+  // -- a frame: its stages in order, then the canvas ----------------------------------------------
+  const present = programs[plan.present_program];
   function frame() {
-    lastDensity = renderDensity();
-    lastImage = renderPost(lastDensity);
-    use(programs[plan.present], {}, { u_source: lastImage });
-    fullscreen(null);
+    for (const stage of frameStages) run(stage);
+    use(present, {}, { u_source: front(plan.present) });
+    gl.bindFramebuffer(gl.FRAMEBUFFER, null);
+    gl.viewport(0, 0, width, height);
+    draw({ state: {}, primitive: "triangles" }, present, triangle, 0, 3);
     show("steps", stepsDone);
   }
 
@@ -400,7 +631,7 @@
     return out;
   }
 
-  // -- the page: warm-up, then play; buttons and sliders --------------------------------------
+  // -- the page: warm-up, then play; buttons, sliders and the mouse --------------------------------
   for (let i = 0; i < plan.steps; i += 1) step();
   frame();
 
@@ -417,8 +648,8 @@
   });
   const controls = document.getElementById("controls");
   for (const c of plan.controls) {
-    const owner = plan.passes.find((p) => c.uniform in p.uniforms);
-    if (owner === undefined) fail(`slider ${c.label}: no pass declares ${c.uniform}`);
+    const owner = plan.stages.find((s) => c.uniform in s.uniforms);
+    if (owner === undefined) fail(`slider ${c.label}: no stage declares ${c.uniform}`);
     live[c.uniform] = live[c.uniform] || owner.uniforms[c.uniform].slice();
     const row = document.createElement("label");
     const value = document.createElement("output");
@@ -434,6 +665,23 @@
     });
     row.append(c.label, slider, value);
     controls.append(row);
+  }
+  if (camera) {
+    show("camera", "drag to orbit, wheel to zoom");
+    let dragging = null;
+    canvas.addEventListener("mousedown", (e) => { dragging = [e.clientX, e.clientY]; });
+    window.addEventListener("mouseup", () => { dragging = null; });
+    window.addEventListener("mousemove", (e) => {
+      if (dragging === null) return;
+      camera.orbit(e.clientX - dragging[0], e.clientY - dragging[1]);
+      dragging = [e.clientX, e.clientY];
+      if (!playing) frame();
+    });
+    canvas.addEventListener("wheel", (e) => {
+      e.preventDefault();
+      camera.zoom(Math.exp(e.deltaY * 0.001));
+      if (!playing) frame();
+    }, { passive: false });
   }
 
   let frames = 0;
@@ -464,31 +712,59 @@
       return stepsDone;
     },
     pause() { playing = false; label(); },
+    // Turn the camera about its target by a drag of (dx, dy) pixels, or move it nearer (factor
+    // below 1) or farther, then draw the frame again.
+    orbit(dx, dy) { camera.orbit(dx, dy); frame(); gl.finish(); },
+    zoom(factor) { camera.zoom(factor); frame(); gl.finish(); },
     // The raw RGBA8 texels of a quantity's part (front texture), width x height, base64.
     state(name, part = 0) {
-      if (!(name in state)) fail(`state(${name}): the plan's quantities are ${Object.keys(state)}`);
-      return base64(read(state[name][part][0], gl.UNSIGNED_BYTE, Uint8Array));
+      if (plan.resources[name] === undefined || plan.resources[name].kind !== "state") {
+        fail(`state(${name}): the plan's quantities are ` + Object.keys(plan.resources)
+          .filter((n) => plan.resources[n].kind === "state").join(", "));
+      }
+      return base64(read(front(name, part), gl.UNSIGNED_BYTE, Uint8Array));
+    },
+    // Replace a quantity's part (front texture) with RGBA8 texels, width x height, base64: a
+    // test loads the EGL run's state to compare the drawing alone.
+    load(name, part, texels) {
+      const t = front(name, part);
+      gl.bindTexture(gl.TEXTURE_2D, t.texture);
+      gl.texSubImage2D(gl.TEXTURE_2D, 0, 0, 0, t.width, t.height, gl.RGBA, gl.UNSIGNED_BYTE,
+                       bytes(texels));
+    },
+    // Draw the frame again (the camera or a loaded state changed), as after `steps` steps if
+    // given (the step number the passes and a moving object's pose follow).
+    frame(steps) {
+      if (steps !== undefined) stepsDone = steps;
+      frame();
+      gl.finish();
+    },
+    // A target's latest texels (RGBA8 as bytes, float formats as float32), base64.
+    resource(name, part = 0) {
+      const t = front(name, part);
+      return t.type === gl.UNSIGNED_BYTE ? base64(read(t, gl.UNSIGNED_BYTE, Uint8Array))
+        : base64(read(t, gl.FLOAT, Float32Array));
     },
     // The last frame's density, float32 per pixel (bottom row first), base64, and the pixels a
     // batch channel filled to its top (where the count may be short).
     density() {
-      const values = new Float32Array(width * height);
+      const out = new Float32Array(width * height);
       let flagged = 0;
       if (path === "float") {
-        const raw = read(lastDensity, gl.FLOAT, Float32Array);
-        for (let i = 0; i < values.length; i += 1) values[i] = raw[4 * i];
+        const raw = read(densityTexture, gl.FLOAT, Float32Array);
+        for (let i = 0; i < out.length; i += 1) out[i] = raw[4 * i];
       } else {
-        const raw = read(lastDensity, gl.UNSIGNED_BYTE, Uint8Array);
-        const unit = plan.intensity / levels;
-        for (let i = 0; i < values.length; i += 1) {
-          values[i] = (raw[4 * i] + 256 * raw[4 * i + 1] + 65536 * raw[4 * i + 2]) * unit;
+        const raw = read(densityTexture, gl.UNSIGNED_BYTE, Uint8Array);
+        const unit = plan.density.intensity / levels;
+        for (let i = 0; i < out.length; i += 1) {
+          out[i] = (raw[4 * i] + 256 * raw[4 * i + 1] + 65536 * raw[4 * i + 2]) * unit;
           if (raw[4 * i + 3] > 0) flagged += 1;
         }
       }
-      return { values: base64(values), flagged };
+      return { values: base64(out), flagged };
     },
     // The last frame's image (RGBA8, bottom row first), base64.
-    image() { return base64(read(lastImage, gl.UNSIGNED_BYTE, Uint8Array)); },
+    image() { return base64(read(front(plan.present), gl.UNSIGNED_BYTE, Uint8Array)); },
   };
   document.body.dataset.ready = "yes";
 }());

@@ -1,0 +1,244 @@
+"""The EGL executor of a frame plan: every resource and command made once, then only draws.
+
+:class:`Executor` makes the plan real on a context: a :class:`~es2particles.frame.state.
+StateBuffer` per quantity, an uploaded texture per image, a texture (a pair for ping-pong,
+with a depth buffer where asked) per target, a buffer per vertex data, and one
+:class:`~es2particles.gl.command.DrawCommand` per stage. Running a stage is the same for every
+kind: its samplers are fed from the resources its inputs name (the front of a pair, or the texture
+written earlier in this step), its per-frame values are computed (:func:`~es2particles.frame.plan.
+frame_value`), its target is cleared where the stage says, and it draws, once, in slices of points
+on a CPU rasteriser, or once per uniform set of its ``repeat`` (swapping a target that swaps per
+draw after each). :meth:`Executor.step` runs the simulation's stages and swaps the state;
+:meth:`Executor.render` runs the frame's stages and returns the presented texture.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import Es2ParticlesError, ParameterError, ShaderError
+from ..gl.command import DrawCommand
+from .plan import frame_value
+from .state import StateBuffer, Textures
+
+
+@dataclass(frozen=True)
+class Frame:
+    """What a frame's values come from: its ``camera`` (None for 2D), the simulation's ``step``
+    and the moving object's ``model`` uniform (16 floats; None: the identity)."""
+
+    camera: object = None
+    step: int = 0
+    model: tuple = None
+
+
+class Executor:
+    """The resources and commands of a :class:`~es2particles.frame.plan.FramePlan` on ``ctx``;
+    ``release()`` (or a ``with``) releases them all (programs stay cached in the context)."""
+
+    def __init__(self, ctx, plan, external=None):
+        self.group = None
+        ctx.make_current()
+        self.ctx, self.plan = ctx, plan
+        self.steps_done = 0
+        self.resources, self.buffers, self.commands, self.cursors = {}, {}, {}, {}
+        self.external = dict(external or {})  # resources someone else owns: name -> made one
+        self.group = ctx.group()
+        try:
+            for resource in plan.resources.values():
+                if resource.name in self.external:
+                    self.resources[resource.name] = self.external[resource.name]
+                else:
+                    self.resources[resource.name] = self._make(resource)
+            for vertices in plan.vertices.values():
+                self.buffers[vertices.name] = self.group.buffer(vertices.array().tobytes())
+            for stage in plan.stages:
+                self.commands[stage.name] = self._command(stage)
+        except Exception:
+            self.release()
+            raise
+        self._swapped = [name for name in self.resources if name not in self.external
+                         and plan.resources[name].swap == "step"]
+
+    # -- making -----------------------------------------------------------------------------------
+
+    def _make(self, r):
+        if r.kind == "state":
+            if r.quantity.storage:
+                self.ctx.require_format(r.quantity.storage)
+            return StateBuffer(self.group, r.quantity, self.plan.layout, r.format, r.buffers)
+        if r.kind == "image":
+            if not isinstance(r.data, np.ndarray):  # ASTC blocks
+                return self.group.compressed_texture(r.data)
+            data = np.ascontiguousarray(r.data)
+            return self.group.texture(r.size, r.format, data=data.tobytes(),
+                                      filter_nearest=not r.linear)
+        target = Textures(self.group, r.size, r.format, r.parts, r.buffers, r.depth, r.linear)
+        if r.data is not None:
+            self.ctx.write(target.fronts[0], np.ascontiguousarray(r.data).tobytes())
+        return target
+
+    def _command(self, stage):
+        vertices = None
+        if stage.vertices is not None:
+            v = self.plan.vertices[stage.vertices]
+            layout = " ".join(f"{n}f" for _, n in v.attributes)
+            vertices = [(self.buffers[v.name], layout, *(a for a, _ in v.attributes))]
+        try:
+            command = DrawCommand(self.group, stage.name, stage.fragment, stage.vertex,
+                                  stage.defines, stage.interface, stage.vertex_interface,
+                                  vertices, stage.primitive, stage.state)
+        except ShaderError as error:
+            interface = stage.interface or stage.vertex_interface
+            if interface is None:
+                raise
+            raise ShaderError(f"{error}\n  (the plan declares for {stage.name}: "
+                              f"{', '.join(sorted(interface.names))})") from None
+        command.check_fed(stage.inputs)
+        for name, value in stage.generated.items():
+            if command.has(name):
+                command.values.set(name, value)
+        command.set_many(stage.uniforms)
+        return command
+
+    # -- running ----------------------------------------------------------------------------------
+
+    def _use(self):
+        if self.group is None:
+            raise Es2ParticlesError("this executor was released; make a new one")
+        self.ctx.make_current()
+
+    def bind(self, name, made):
+        """Use ``made`` (a StateBuffer or Textures someone else owns) as external resource
+        ``name`` from now on."""
+        if name not in self.external:
+            raise ParameterError(f"{name!r} is not an external resource of this plan (external: "
+                                 f"{', '.join(self.external) or 'none'})")
+        self.external[name] = self.resources[name] = made
+
+    def frame(self, camera=None, model=None, step=None):
+        """The :class:`Frame` of a render: ``model`` a 4x4 matrix placing the moving meshes
+        (None: the plan's motion after ``step`` steps, default the steps done)."""
+        from ..render.meshes import model_uniform
+
+        step = self.steps_done if step is None else step
+        if model is not None:
+            model = model_uniform(model)
+        elif self.plan.motion is not None:
+            model = self.plan.motion.uniform(step)
+        return Frame(camera, step, model)
+
+    def texture(self, ref):
+        """The texture a :class:`~es2particles.frame.plan.Ref` names now."""
+        made = self.resources[ref.resource]
+        if not isinstance(made, Textures):
+            return made  # an image
+        return (made.written if ref.when == "written" else made.fronts)[ref.part]
+
+    def front(self, name, part=0):
+        """The latest texture of resource ``name``."""
+        made = self.resources[name]
+        return made.fronts[part] if isinstance(made, Textures) else made
+
+    def run(self, stage, frame=None, clear=True, draws=None):
+        """Draw ``stage`` (see the module's docstring) for ``frame`` (a :class:`Frame`; None:
+        :meth:`frame` with no camera); ``clear`` False keeps what its target holds (an
+        accumulated sample); ``draws``: indices into its ``repeat`` to draw instead of this
+        frame's share."""
+        self._use()
+        frame = self.frame() if frame is None else frame
+        command = self.commands[stage.name]
+        target = self.resources[stage.target.resource]
+        aspect = target.size[0] / target.size[1]
+        values = {name: frame_value(spec, frame.camera, frame.step, self.ctx.caps, frame.model,
+                                    aspect)
+                  for name, spec in stage.frame_uniforms.items()}
+        swaps = self.plan.resources[stage.target.resource].swap == "draw"
+        if clear and stage.clear is not None:
+            self.ctx.clear(target.framebuffer(stage.target.part), stage.clear,
+                           1.0 if target.depth is not None else None)
+        if stage.repeat:
+            for index in self._next_draws(stage) if draws is None else draws:
+                textures = {s: self.texture(ref) for s, ref in stage.inputs.items()}
+                command.draw(target.framebuffer(stage.target.part), textures,
+                             {**values, **stage.repeat[index]})
+                if swaps:
+                    target.swap()
+            return
+        textures = {s: self.texture(ref) for s, ref in stage.inputs.items()}
+        framebuffer = target.framebuffer(stage.target.part)
+        count = stage.count
+        if stage.slice is not None and count is not None and stage.slice < count:
+            command.draw(framebuffer, textures, values, 0, stage.slice)
+            self.ctx.flush()
+            for first in range(stage.slice, count, stage.slice):
+                command.draw(framebuffer, textures, None, first, min(stage.slice, count - first))
+                self.ctx.flush()
+        else:
+            command.draw(framebuffer, textures, values, 0, count)
+        if swaps:
+            target.swap()
+
+    def _next_draws(self, stage):
+        """Indices into ``stage.repeat`` of this frame's draws: all, or the next ``per_frame``
+        of the cycle (a whole cycle leaves its place where it was)."""
+        n = len(stage.repeat)
+        if stage.per_frame is None or stage.per_frame >= n:
+            return range(n)
+        cursor = self.cursors.get(stage.name, 0)
+        self.cursors[stage.name] = (cursor + stage.per_frame) % n
+        return [(cursor + i) % n for i in range(stage.per_frame)]
+
+    def step(self):
+        """Run every simulation stage once, then make this step's values the front ones."""
+        self._use()
+        frame = Frame(step=self.steps_done)
+        for stage in self.plan.step_stages:
+            self.run(stage, frame)
+        for name in self._swapped:
+            self.resources[name].swap()
+        self.steps_done += 1
+
+    def render(self, frame=None, stages=None):
+        """Run the frame's stages (or ``stages``) in order for ``frame`` (a :class:`Frame`);
+        returns the presented texture."""
+        self._use()
+        frame = self.frame() if frame is None else frame
+        for stage in self.plan.frame_stages if stages is None else stages:
+            self.run(stage, frame)
+        return self.front(self.plan.present) if self.plan.present else None
+
+    def set_uniform(self, name, value, convert=None):
+        """Set uniform ``name`` on every stage that declares it among its own uniforms
+        (``convert(stage, value)``, if given, turns the value into the stage's form)."""
+        self._use()
+        for stage in self.plan.stages:
+            if name in stage.uniforms:
+                self.commands[stage.name].set(name, value if convert is None
+                                              else convert(stage, value))
+
+    def write_vertices(self, name, array):
+        """Replace vertex data ``name`` (the draw order of the particles, say)."""
+        self._use()
+        self.ctx.write(self.buffers[name], np.ascontiguousarray(array, np.float32).tobytes())
+
+    def read(self, name, part=0):
+        """The bytes of resource ``name``'s latest texture."""
+        self._use()
+        return self.ctx.read(self.front(name, part))
+
+    def release(self):
+        """Release every resource and command; safe to call twice."""
+        if self.group is None:
+            return
+        if self.ctx._open:
+            self.ctx.make_current()
+        self.group.release()
+        self.group = None
+        self.resources, self.buffers, self.commands, self._swapped = {}, {}, {}, []
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.release()

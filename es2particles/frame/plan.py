@@ -1,0 +1,658 @@
+"""The whole frame as one plan: what a frame runs, in order, as data, made with no GL.
+
+:func:`plan_frame` makes a :class:`FramePlan` from a scene, its :class:`FrameSettings` and the
+context's :class:`~es2particles.gl.context.Capabilities` (stated ones where there is no context):
+
+- **resources**: the state quantities (ping-pong where last step's value is read), the scene's
+  textures, fixed images (a sprite, a colour ramp, a mesh's texture) and the targets the frame
+  draws into (the density, the colour image with its depth, a shadow map, a sort order, each post
+  stage's output), each with its size, format and bytes;
+- **stages**, in order, each a complete draw (regl's commands): its shaders and defines, the
+  generated interface, which resource every sampler reads, the target it writes, its vertex data
+  and primitive, its GL state, its uniforms, and the per-frame values it takes (the camera, the
+  step number, a moving object's model matrix). The simulation's passes are stages of the step;
+  sort, shadow map, meshes, particles and post are stages of the frame;
+- **present**: the resource that is the picture. Culling walks back from it (Filament's
+  ``present()``): a stage whose target nothing needed reads is left out, and the plan says so,
+  with every pass, quantity and texture the pass graph left out and every feature switched off.
+
+Two executors run the same plan: :class:`~es2particles.frame.executor.Executor` on EGL and the
+WebGL page (``export/``), which serialises it. Renderers are chosen by what the scene declares
+(a :class:`~es2particles.render.points.Density` or a
+:class:`~es2particles.render.sprites.Sprites`), never by a string.
+"""
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from ..errors import CapabilityError, GraphError, ParameterError, check_range
+from ..gl.bindings import generated_values, pass_interface, uniform_value
+from ..gl.context import Capabilities, bytes_per_texel
+from ..gl.device import DrawState
+from .graph import format_bytes
+from .state import FORMATS, Layout
+
+ROUNDINGS = ("nearest", "dither")
+AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
+MAX_STEPS = 10 ** 7
+MAX_ACCUMULATE = 10 ** 6
+
+
+# --- the plan's parts ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Ref:
+    """Where a sampler's texture comes from, or where a stage draws: part ``part`` of resource
+    ``resource``; of a ping-pong pair, ``front`` (the latest value: last step's, during a step)
+    or ``written`` (this step's, written by an earlier pass of the same step)."""
+
+    resource: str
+    part: int = 0
+    when: str = "front"
+
+
+@dataclass(frozen=True)
+class Resource:
+    """A texture (or a pair, for ping-pong) the frame makes.
+
+    ``kind``: ``state`` (a quantity, ``quantity`` its declaration), ``image`` (uploaded once from
+    ``data``: an (h, w, 4) uint8 or float32 array, or ASTC blocks) or ``target`` (drawn into; with
+    ``depth``, a depth buffer beside it; ``data``, if given, its first contents). ``swap``:
+    ``step`` (the pair swaps at the end of each step: state) or ``draw`` (after each draw into it:
+    a sort order). ``linear``: sampled with linear filtering (never packed state)."""
+
+    name: str
+    kind: str
+    size: tuple
+    format: str
+    parts: int = 1
+    buffers: int = 1
+    swap: str = None
+    depth: bool = False
+    linear: bool = False
+    data: object = field(default=None, repr=False, compare=False)
+    quantity: object = None
+    what: str = ""
+
+    @property
+    def nbytes(self):
+        if self.data is not None and hasattr(self.data, "block"):  # ASTC blocks
+            return self.data.nbytes
+        w, h = self.size
+        colour = self.parts * self.buffers * w * h * bytes_per_texel(self.format)
+        return colour + (w * h * 4 if self.depth else 0)
+
+    def describe(self):
+        w, h = self.size
+        if self.data is not None and hasattr(self.data, "block"):
+            kind = (f"ASTC {self.data.block[0]}x{self.data.block[1]} "
+                    f"({self.data.bits_per_texel:.2f} bits a texel)")
+        else:
+            kind = self.format
+        count = ""
+        if self.parts > 1 or self.buffers > 1:
+            count = (f" {self.parts} parts x {self.buffers}" if self.parts > 1
+                     else f" x{self.buffers}")
+        depth = " + depth" if self.depth else ""
+        return f"{self.name}: {kind} {w}x{h}{count}{depth}, {format_bytes(self.nbytes)}"
+
+
+@dataclass(frozen=True)
+class Vertices:
+    """Vertex data of the frame's draws. ``texels``: the texel centres of ``count`` cells of a
+    ``width`` x ``height`` grid, row by row (a particle's texel, or a sort slot's: ES 1.00 has no
+    gl_VertexID), attribute ``a_texel``; ``data``: an array (n, k) of float32 with ``attributes``
+    ((name, components), ...) interleaved (a mesh)."""
+
+    name: str
+    source: str
+    count: int
+    width: int = 0
+    height: int = 0
+    data: object = field(default=None, repr=False, compare=False)
+    attributes: tuple = (("a_texel", 2),)
+
+    def array(self):
+        """The vertex data as an (n, k) float32 array."""
+        if self.source == "texels":
+            return Layout(self.count, self.width, self.height).texel_uv()
+        return np.ascontiguousarray(self.data, dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One draw of the frame, complete.
+
+    ``kind`` groups stages for a reader (pass, sort key, sort merge, shadow map, mesh, points,
+    sprites, post); executors treat every kind alike. ``inputs``: sampler -> :class:`Ref`.
+    ``target``: the :class:`Ref` it draws into (the back of a pair). ``vertices``: the name of its
+    :class:`Vertices`, or None for the full-screen triangle; ``count``: vertices drawn (None:
+    all). ``uniforms``: its own values, set strictly (a name the shader does not declare and use
+    is an error); ``generated``: the values of its generated interface (ranges, state size and
+    count), set where the driver keeps them. ``frame_uniforms``: uniform -> a frame value
+    (:func:`frame_value`). ``clear``: a colour its target is cleared to first (and the depth to
+    1). ``repeat``: uniform sets, one draw each (the sort's merge passes), of which ``per_frame``
+    are drawn each frame, continuing where the last frame stopped (None: all). ``slice``: points
+    per draw call where a CPU rasteriser draws better in slices. ``step``: a simulation pass (run
+    every step) rather than a stage of the frame."""
+
+    name: str
+    kind: str
+    fragment: str
+    vertex: str = "lib/fullscreen.vert"
+    defines: dict = field(default_factory=dict)
+    interface: object = field(default=None, repr=False, compare=False)
+    vertex_interface: object = field(default=None, repr=False, compare=False)
+    inputs: dict = field(default_factory=dict)
+    target: Ref = None
+    vertices: str = None
+    primitive: str = "triangles"
+    count: int = None
+    state: DrawState = DrawState()
+    uniforms: dict = field(default_factory=dict)
+    generated: dict = field(default_factory=dict)
+    frame_uniforms: dict = field(default_factory=dict)
+    clear: tuple = None
+    repeat: tuple = ()
+    per_frame: int = None
+    slice: int = None
+    step: bool = False
+    what: str = ""
+
+    @property
+    def files(self):
+        return (self.fragment,) if self.vertex == "lib/fullscreen.vert" else (self.vertex,
+                                                                              self.fragment)
+
+    @property
+    def reads(self):
+        return tuple(dict.fromkeys(ref.resource for ref in self.inputs.values()))
+
+
+# --- frame values -------------------------------------------------------------------------------
+
+FRAME_VALUES = ("step", "view_projection", "eye", "forward", "depth_range", "model",
+                "sprite_size", "light_size")
+
+
+def depth_range(lo, hi, camera):
+    """(near, far): the view depths of the nearest and farthest corners of the box [lo, hi]."""
+    lo, hi = (np.asarray(v, dtype=np.float64) for v in (lo, hi))
+    corners = np.array([[(hi if (c >> a) & 1 else lo)[a] for a in range(3)] for c in range(8)])
+    depth = (corners - np.array(camera.eye)) @ camera.forward
+    return float(depth.min()), float(depth.max())
+
+
+def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
+    """A uniform's value for this frame, from its ``spec`` (a name of :data:`FRAME_VALUES` and
+    its arguments): the simulation's ``step``, the ``camera``'s view-projection for a target of
+    ``aspect``, its eye and viewing direction, the ``depth_range`` (far, 1 / (far - near)) of a
+    box's corners along it, the moving object's ``model`` matrix (16 floats; None: the identity),
+    and the sprites' and shadow map's sizes, whose last two numbers are the context's point size
+    range. The WebGL page's executor computes the same from its own camera (``executor.js``)."""
+    name, *args = spec
+    if name == "step":
+        return float(step)
+    if name == "model":
+        from ..render.meshes import IDENTITY
+
+        return IDENTITY if model is None else model
+    if name in ("sprite_size", "light_size"):
+        lo, hi = caps.point_size_range
+        if name == "sprite_size":
+            pixels, spread = args
+            return (float(pixels), float(spread), float(lo), float(hi))
+        per_focal, light_focal, spread, height = args
+        world = per_focal / camera.focal_pixels(height)
+        return (float(world * light_focal), float(spread), float(lo), float(hi))
+    if camera is None:
+        raise ParameterError(f"frame value {name!r} needs a camera: this scene has none")
+    if name == "view_projection":
+        return camera.uniform(aspect)
+    if name == "eye":
+        return tuple(float(v) for v in camera.eye)
+    if name == "forward":
+        return tuple(float(v) for v in camera.forward)
+    if name == "depth_range":
+        near, far = depth_range(*args, camera)
+        return (far, 1.0 / max(far - near, 1e-30))
+    raise ParameterError(f"unknown frame value {name!r} (known: {', '.join(FRAME_VALUES)})")
+
+
+# --- settings -----------------------------------------------------------------------------------
+
+class _Default:
+    """A setting left to the scene or the framework (``FrameSettings``)."""
+
+    def __repr__(self):
+        return "DEFAULT"
+
+    def __reduce__(self):
+        return "DEFAULT"
+
+
+DEFAULT = _Default()
+# A setting's command-line form, for messages that name what the user typed.
+OPTIONS = {"particles": "--particles", "size": "--size", "format": "--format",
+           "rounding": "--rounding", "steps": "--steps", "point_size": "--point-size",
+           "intensity": "--intensity", "exposure": "--exposure", "gradient": "--gradient",
+           "bloom": "--no-bloom/--bloom-*", "accumulate": "--accumulate", "seed": "--seed"}
+
+
+@dataclass(frozen=True)
+class FrameSettings:
+    """What a run asks of the frame, beside the scene's own parameters. A setting left as
+    ``DEFAULT`` takes the scene's default (particles, point size, steps, rounding) or the
+    framework's; one given that the scene's frame does not use (a gradient map for 3D sprites) is
+    an error naming it, never silently ignored.
+
+    ``gradient``: a ramp (see ``render.ramps``) or None (grey); ``bloom``: a
+    :class:`~es2particles.render.post.Bloom` or None (off). ``share``: which share of a larger
+    still this is (``cluster/shares.py``)."""
+
+    particles: object = DEFAULT
+    size: object = DEFAULT
+    format: object = DEFAULT
+    rounding: object = DEFAULT
+    steps: object = DEFAULT
+    point_size: object = DEFAULT
+    intensity: object = DEFAULT
+    exposure: object = DEFAULT
+    gradient: object = DEFAULT
+    bloom: object = DEFAULT
+    accumulate: object = DEFAULT
+    seed: object = DEFAULT
+    share: int = 0
+
+    def given(self):
+        """The names of the settings given (not left as DEFAULT)."""
+        return [f.name for f in fields(self)
+                if f.name != "share" and getattr(self, f.name) is not DEFAULT]
+
+    def get(self, name, default):
+        value = getattr(self, name)
+        return default if value is DEFAULT else value
+
+
+def parse_size(text, max_size):
+    """'WxH' (or an int pair) to (w, h), each in [1, max_size]."""
+    if isinstance(text, str):
+        parts = text.lower().split("x")
+        if len(parts) != 2:
+            raise ParameterError(f"size must be WxH, e.g. 1024x1024, got {text!r}")
+        try:
+            text = tuple(int(p) for p in parts)
+        except ValueError:
+            raise ParameterError(f"size must be WxH with whole numbers, got {text!r}") from None
+    try:
+        w, h = text
+    except (TypeError, ValueError):
+        raise ParameterError(f"size must be WxH or a (w, h) pair, got {text!r}") from None
+    return (int(check_range("size width", w, 1, max_size, integer=True)),
+            int(check_range("size height", h, 1, max_size, integer=True)))
+
+
+def resolve_format(caps, fmt):
+    """The storage format to use and a note saying why: ``auto`` takes the most precise format
+    the context can render to; a named one must be renderable (else CapabilityError)."""
+    if fmt == "auto":
+        for candidate in AUTO_ORDER:
+            if caps.renderable.get(candidate):
+                return candidate, f"{candidate} (auto: the most precise renderable format)"
+    if fmt not in FORMATS:
+        raise ParameterError(f"format must be one of {sorted(FORMATS)} or 'auto', got {fmt!r}")
+    if not caps.renderable.get(fmt):
+        raise CapabilityError(f"format {fmt!r} cannot be rendered to on {caps.renderer}")
+    return fmt, fmt
+
+
+def check_rounding(rounding):
+    if rounding not in ROUNDINGS:
+        raise ParameterError(f"rounding must be one of {ROUNDINGS}, got {rounding!r}")
+    return rounding
+
+
+def draw_defines(spec, rounding):
+    """The defines of a pass's draws: the pass's own, and STATE_DITHER for dithered rounding."""
+    return {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
+
+
+# --- the plan -----------------------------------------------------------------------------------
+
+@dataclass
+class FramePlan:
+    """What a frame runs (see the module's docstring). ``graph``: the pass graph's
+    :class:`~es2particles.frame.graph.Plan` of the simulation step; ``layout``, ``format``
+    (``format_note`` says why) and ``rounding`` of the state; ``steps``, run before the first
+    frame; ``accumulate``, samples summed into each image; ``camera``: a function of (frame,
+    frames) giving the frame's camera (None for 2D); ``motion``: the moving object's
+    :class:`~es2particles.render.meshes.Motion` (None where nothing moves)."""
+
+    scene: str
+    layout: Layout
+    format: str
+    format_note: str
+    rounding: str
+    graph: object
+    pass_graph: object
+    resources: dict
+    vertices: dict
+    stages: list
+    present: str
+    steps: int = 0
+    accumulate: int = 1
+    size: tuple = None
+    camera: object = None
+    motion: object = None
+    rendering: object = None
+    left_out: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    settings: dict = field(default_factory=dict)
+
+    @property
+    def step_stages(self):
+        return [s for s in self.stages if s.step]
+
+    @property
+    def frame_stages(self):
+        return [s for s in self.stages if not s.step]
+
+    def stage(self, name):
+        for s in self.stages:
+            if s.name == name:
+                return s
+        raise GraphError(f"the plan has no stage {name!r} (stages: "
+                         f"{', '.join(s.name for s in self.stages)})")
+
+    def stages_of(self, kind):
+        return [s for s in self.stages if s.kind == kind]
+
+    def describe(self, measured=()):
+        """The plan as lines: the simulation step's passes and state textures, the frame's
+        stages with their targets and bytes, the textures of the frame, what was left out."""
+        layout = self.layout
+        lines = [f"scene: {self.scene}; {layout.count} particles in {layout.width}x"
+                 f"{layout.height} texels ({layout.spare} spare, never drawn); state format "
+                 f"{self.format_note}" + (f", {self.rounding} rounding" if self.format == "rgba8"
+                                          else "")
+                 + f"; {self.steps} steps before the first frame", "simulation step:"]
+        lines += ["  " + line for line in self.graph.describe(self.format, layout)]
+        lines += ["  " + line for line in self.notes]
+        lines += ["  " + line for line in measured]
+        lines.append("frame, in order:")
+        if self.accumulate > 1:
+            lines.append(f"  accumulate: {self.accumulate} samples per image (this step's "
+                         f"density and the next {self.accumulate - 1} steps', "
+                         f"{self.accumulate * layout.count} points), one tone map")
+        first = len(self.step_stages)
+        for i, stage in enumerate(self.frame_stages, first + 1):
+            lines.append(f"  {i}. {self._describe_stage(stage)}")
+        if self.present is not None:
+            target = self.resources[self.present]
+            lines.append(f"  present: {target.name} ({target.format} {target.size[0]}x"
+                         f"{target.size[1]})")
+        frame_textures = [r for r in self.resources.values() if r.kind != "state"]
+        total = sum(r.nbytes for r in self.resources.values())
+        lines.append(f"textures of the frame (state above), {format_bytes(total)} in all with "
+                     "the state:")
+        lines += [f"  {r.describe()}" + (f" ({r.what})" if r.what else "")
+                  for r in frame_textures]
+        lines.append("left out: " + (", ".join(self.left_out) if self.left_out else "nothing"))
+        return lines
+
+    def _describe_stage(self, s):
+        reads = [("texture " if self.resources[r].kind == "image" else "") + r
+                 for r in s.reads]
+        draws = f"x{len(s.repeat)} draws" if s.repeat else ""
+        if s.repeat and s.per_frame is not None:
+            frames = -(-len(s.repeat) // s.per_frame)
+            draws = (f"{s.per_frame} of {len(s.repeat)} draws a frame (all of them every "
+                     f"{frames} frames)")
+        if s.vertices is not None:
+            v = self.vertices[s.vertices]
+            count = s.count if s.count is not None else v.count
+            unit = {"points": "points", "triangles": "vertices"}[s.primitive]
+            draws = f"{count} {unit} ({v.name})"
+        clear = " (clears it first)" if s.clear is not None else ""
+        text = (f"{s.name}: {' + '.join(s.files)} -> {s.target.resource}{clear}; reads "
+                f"{', '.join(reads) or 'nothing'}; {s.state.describe()}")
+        if draws:
+            text += f"; {draws}"
+        if s.what:
+            text += f"; {s.what}"
+        return text
+
+    def __str__(self):
+        return "\n".join(self.describe())
+
+
+class PlanBuilder:
+    """What :func:`plan_frame` and the render declarations add to while a plan is made: resources,
+    vertex data and stages, with names checked unique; which settings were used; what was
+    switched off."""
+
+    def __init__(self, scene_name, settings, caps):
+        self.scene_name, self.settings, self.caps = scene_name, settings, caps
+        self.resources, self.vertices, self.stages = {}, {}, []
+        self.used, self.left_out, self.notes = set(), [], []
+        self.layout = self.format = self.format_note = self.rounding = self.graph_plan = None
+        self.pass_graph = None
+        self.size, self.accumulate = None, 1
+
+    def finish(self, present, **more):
+        """The :class:`FramePlan` of what was added."""
+        return FramePlan(scene=self.scene_name, layout=self.layout, format=self.format,
+                         format_note=self.format_note, rounding=self.rounding,
+                         graph=self.graph_plan, pass_graph=self.pass_graph,
+                         resources=self.resources,
+                         vertices=self.vertices, stages=self.stages, present=present,
+                         accumulate=self.accumulate, left_out=self.left_out, notes=self.notes,
+                         **more)
+
+    def setting(self, name, default):
+        """Setting ``name`` (its default where it was not given), marked as used."""
+        self.used.add(name)
+        return self.settings.get(name, default)
+
+    def resource(self, resource):
+        if resource.name in self.resources:
+            raise GraphError(f"two resources of the frame are named {resource.name!r}")
+        self.resources[resource.name] = resource
+        return resource
+
+    def vertex_data(self, vertices):
+        if vertices.name in self.vertices:
+            raise GraphError(f"two vertex data of the frame are named {vertices.name!r}")
+        self.vertices[vertices.name] = vertices
+        return vertices
+
+    def stage(self, stage):
+        if any(s.name == stage.name for s in self.stages):
+            raise GraphError(f"two stages of the frame are named {stage.name!r}")
+        for sampler, ref in stage.inputs.items():
+            if ref.resource not in self.resources:
+                raise GraphError(f"{stage.name}: sampler {sampler} reads {ref.resource!r}, which "
+                                 f"the frame does not have (has: {', '.join(self.resources)})")
+        if stage.target.resource not in self.resources:
+            raise GraphError(f"{stage.name} draws into {stage.target.resource!r}, which the "
+                             "frame does not have")
+        if stage.vertices is not None and stage.vertices not in self.vertices:
+            raise GraphError(f"{stage.name} draws vertex data {stage.vertices!r}, which the "
+                             "frame does not have")
+        self.stages.append(stage)
+        return stage
+
+    def particle_texels(self):
+        """The name of the vertex data naming each particle's texel, added the first time."""
+        if "particles" not in self.vertices:
+            self.vertex_data(Vertices("particles", "texels", self.layout.count, self.layout.width,
+                                      self.layout.height))
+        return "particles"
+
+    def state_inputs(self, interface):
+        """The :class:`Ref` of each sampler of a generated interface (quantities and scene
+        textures)."""
+        out = {}
+        for sampler, source in interface.samplers.items():
+            if source[0] == "quantity":
+                _, q, part, this_step = source
+                out[sampler] = Ref(q, part, "written" if this_step else "front")
+            else:
+                out[sampler] = Ref(source[1])
+        return out
+
+
+def plan_simulation(builder, graph, outputs, count, fmt, rounding):
+    """Add the simulation of ``graph`` to ``builder``: the pass graph's plan of ``outputs``, the
+    state layout of ``count`` particles in ``fmt``, a state resource per quantity, an image per
+    scene texture, and a stage per draw of each pass (a quantity of three or four components in
+    RGBA8 is written by two draws). Checks, with no GL, that each pass uses what it declares it
+    reads."""
+    from ..gl.command import _names
+    from ..gl.shaders import expand
+
+    caps = builder.caps
+    check_rounding(rounding)
+    plan = graph.plan(outputs)
+    layout = Layout.for_count(count, caps.max_texture_size)
+    fmt, note = resolve_format(caps, fmt)
+    builder.graph_plan, builder.layout, builder.format = plan, layout, fmt
+    builder.pass_graph = graph
+    builder.format_note, builder.rounding = note, rounding
+    for name, n in plan.buffers.items():
+        q = plan.quantities[name]
+        if q.storage and not caps.renderable.get(q.storage):
+            raise CapabilityError(f"quantity {name!r} is pinned to {q.storage}, which cannot be "
+                                  f"rendered to on {caps.renderer}")
+        builder.resource(Resource(name, "state", layout.size, q.format_in(fmt), parts=q.parts(fmt),
+                                  buffers=n, swap="step" if n == 2 else None, quantity=q,
+                                  what=f"quantity, {q.components} components"))
+    for name, data in plan.textures.items():
+        compressed = not isinstance(data, np.ndarray)
+        fmt_of = "rgba8" if compressed or data.dtype == np.uint8 else "rgba32f"
+        size = (data.width, data.height) if compressed else (data.shape[1], data.shape[0])
+        builder.resource(Resource(name, "image", size, fmt_of, data=data,
+                                  what="scene texture"))
+    for spec, part, parts in plan.draws(fmt):
+        interface = pass_interface(spec, graph.quantities, fmt, part)
+        stage_name = spec.stage(part)
+        defines = draw_defines(spec, rounding)
+        source = expand(spec.frag, defines, interface.lines, interface.epilogue)
+        _, referenced = _names(source)
+        for sampler, (kind, what) in ((n, v[:2]) for n, v in interface.samplers.items()):
+            call = f"read_{what}" if kind == "quantity" else sampler
+            if call not in referenced:
+                raise ParameterError(f"{stage_name} ({spec.frag}) declares it reads {kind} "
+                                     f"{what!r} but its shader never uses {call}")
+        q = plan.quantities[spec.writes]
+        what = f"part {part + 1}/{parts} ({q.part_axes(fmt, part)})" if parts > 1 else ""
+        builder.stage(Stage(
+            stage_name, "pass", spec.frag, defines=defines, interface=interface,
+            inputs=builder.state_inputs(interface), target=Ref(spec.writes, part),
+            uniforms={name: uniform_value(name, value, interface.uniforms[name])
+                      for name, value in spec.uniforms.items()},
+            generated=generated_values(interface, layout),
+            frame_uniforms={"u_step": ("step",)} if "u_step" in referenced else {},
+            step=True, what=what))
+    builder.left_out += [f"pass {p.name}" for p in plan.left_out_passes]
+    builder.left_out += [f"quantity {q}" for q in plan.left_out_quantities]
+    builder.left_out += [f"texture {t}" for t in plan.left_out_textures]
+    return plan
+
+
+def plan_graph(graph, count, outputs=None, fmt="rgba8", rounding="nearest", caps=None):
+    """The :class:`FramePlan` of a simulation alone: the passes of ``graph`` computing
+    ``outputs`` (default: every written quantity) for ``count`` particles, and no frame stages."""
+    b = PlanBuilder("", FrameSettings(), caps if caps is not None else Capabilities.assumed())
+    plan_simulation(b, graph, outputs, count, fmt, rounding)
+    return b.finish(present=None)
+
+
+def plan_frame(scene, settings=FrameSettings(), caps=None):
+    """The :class:`FramePlan` of ``scene`` with ``settings`` on a context of ``caps`` (stated
+    ones, :meth:`Capabilities.assumed`, where None): pure Python, no GL. Every setting left as
+    DEFAULT takes the scene's default, resolved here once; a setting given that the frame does not
+    use is an error naming it."""
+    if caps is None:
+        caps = Capabilities.assumed()
+    if not isinstance(settings, FrameSettings):
+        raise ParameterError(f"settings must be a FrameSettings, got {type(settings).__name__}")
+    defaults = scene.defaults
+    b = PlanBuilder(scene.name, settings, caps)
+    size = parse_size(b.setting("size", (1024, 1024)), caps.max_texture_size)
+    steps = int(check_range("steps", b.setting("steps", defaults.steps), 0, MAX_STEPS,
+                            integer=True))
+    seed = b.setting("seed", 0)
+    check_range("seed", seed, 0, 2 ** 63 - 1, integer=True)
+    check_range("share", settings.share, 0, 2 ** 40, integer=True)
+    rendering = scene.rendering()
+    graph = scene_graph(scene, caps)
+    rendering.check_reads(scene, graph)
+    b.size = size
+    plan_simulation(b, graph, rendering.reads, b.setting("particles", defaults.particles),
+                    b.setting("format", "rgba8"), b.setting("rounding", defaults.rounding))
+    present = rendering.plan(b, defaults)
+    culled = _cull(b.stages, present)
+    b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
+                   for s in b.stages if s.name in culled]
+    unused = [name for name in settings.given() if name not in b.used]
+    if unused:
+        what = rendering.kind
+        raise ParameterError(f"{', '.join(OPTIONS.get(n, n) for n in unused)}: scene "
+                             f"{scene.name!r} does not use "
+                             f"{'this setting' if len(unused) == 1 else 'these settings'} "
+                             f"({what})")
+    b.stages = [s for s in b.stages if s.name not in culled]
+    b.notes = list(graph.notes) + list(scene.describe()) + b.notes
+    return b.finish(present=present, steps=steps, size=size, rendering=rendering,
+                    camera=scene.camera_at if rendering.has_camera else None,
+                    motion=scene.motion() if rendering.has_camera else None,
+                    settings={"seed": seed, "share": settings.share})
+
+
+def scene_graph(scene, caps):
+    """``scene.graph(caps)``; a plug-in scene whose ``graph()`` takes no capabilities is called
+    without them."""
+    import inspect
+
+    try:
+        takes = len(inspect.signature(scene.graph).parameters) > 0
+    except (TypeError, ValueError):
+        takes = True
+    return scene.graph(caps) if takes else scene.graph()
+
+
+def _cull(stages, present):
+    """Names of the frame stages whose target no needed stage reads, walking back from the
+    presented resource (the simulation's passes are culled by the pass graph)."""
+    needed_resources, needed = {present}, set()
+    for stage in reversed([s for s in stages if not s.step]):
+        if stage.target.resource in needed_resources:
+            needed.add(stage.name)
+            needed_resources.update(stage.reads)
+    return {s.name for s in stages if not s.step and s.name not in needed}
+
+
+class Rendering:
+    """What a scene draws, declared (a :class:`~es2particles.render.points.Density` or
+    :class:`~es2particles.render.sprites.Sprites`): the quantities it reads, which are outputs
+    of the simulation's plan, and the stages it adds to a frame plan (:meth:`plan`, which returns
+    the name of the presented resource). ``has_camera``: its frames are seen through the scene's
+    camera (3D)."""
+
+    reads = ("position",)
+    has_camera = False
+    kind = "a rendering"
+
+    def check_reads(self, scene, graph):
+        """Raise unless every quantity read is one a pass of ``graph`` writes."""
+        for name in self.reads:
+            if name not in graph.quantities or graph.writer(name) is None:
+                how = ("declares but no pass writes" if name in graph.quantities
+                       else "does not declare")
+                raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} {how} "
+                                 f"(its quantities: {', '.join(graph.quantities) or 'none'})")
+
+    def plan(self, b, defaults):
+        raise NotImplementedError

@@ -1,0 +1,450 @@
+"""The device beneath the context: the one place GL calls are made, and a recording twin of it.
+
+A :class:`~es2particles.gl.context.Context` makes, owns and releases objects and runs draws only
+through its device. :class:`GLDevice` does that with moderngl (the only module of the package that
+calls it); :class:`RecordingDevice` makes handles that carry what was asked for and writes every
+call into ``calls``, with no GL library loaded, so the plan's executor can be tested on its call
+stream: which texture is bound to which sampler, which framebuffer each draw writes, in which
+order, with which uniforms and state, and what is released (as Filament tests its frame graph on a
+no-op driver). Numbers are tested on the GL device; the recording one draws nothing.
+
+A draw is one call, :meth:`draw`, with everything it needs: the vertex array, the target, the
+textures by unit, the :class:`DrawState` (blending, depth test and writes, program point size,
+point sprites), set for that draw and switched off again after it, also when an exception passes
+through.
+"""
+
+import ctypes
+import itertools
+import re
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+
+BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
+PRIMITIVES = ("triangles", "points")
+GL_POINT_SPRITE = 0x8861
+GL_TEXTURE_2D = 0x0DE1
+GL_SAMPLER_2D = 0x8B5E
+
+
+@dataclass(frozen=True)
+class DrawState:
+    """The GL state of one draw: blending (None, ``"add"``: ONE, ONE, or ``"over"``:
+    premultiplied alpha), depth test, depth writes (with the test), the vertex shader's point size
+    (``point_size``) and point sprites (``sprites``: gl_PointCoord varies over a point)."""
+
+    blend: str = None
+    depth_test: bool = False
+    depth_write: bool = True
+    point_size: bool = False
+    sprites: bool = False
+
+    def __post_init__(self):
+        if self.blend not in (None, *BLEND_FUNCTIONS):
+            raise ValueError(f"blend must be None or one of {sorted(BLEND_FUNCTIONS)}, "
+                             f"got {self.blend!r}")
+
+    def describe(self):
+        """A few words for a printed plan."""
+        words = [f"{self.blend} blend" if self.blend else "no blend"]
+        if self.depth_test:
+            words.append("depth test" + (" and writes" if self.depth_write else ", no writes"))
+        if self.sprites:
+            words.append("point sprites")
+        return ", ".join(words)
+
+
+@dataclass(frozen=True)
+class ActiveUniform:
+    """A uniform the linked program keeps: whether it is a sampler, and its array length."""
+
+    sampler: bool
+    length: int = 1
+
+
+class GLDevice:
+    """moderngl under a context: objects, draws, reads and writes, through one moderngl context."""
+
+    def __init__(self, mgl, backend="egl", profile="core"):
+        self.mgl, self.backend, self.profile = mgl, backend, profile
+        self._gl_calls = {}
+
+    # -- the context ---------------------------------------------------------------------------
+
+    def info(self):
+        return dict(self.mgl.info)
+
+    def extensions(self):
+        return set(self.mgl.extensions)
+
+    def error(self):
+        return self.mgl.error
+
+    def make_current(self):
+        self.mgl.__enter__()
+
+    def flush(self):
+        """glFlush: hand the queued GL work to the driver without waiting for it. moderngl has no
+        call for it; where moderngl's own loader is not there it does nothing (a flush changes
+        speed, never results)."""
+        self._gl_function("glFlush")()
+
+    def close(self):
+        self.mgl.release()
+        self.mgl = None
+
+    # -- objects -------------------------------------------------------------------------------
+
+    def texture(self, size, components, dtype, data=None, linear=False):
+        import moderngl
+
+        tex = self.mgl.texture(tuple(size), components, data=data, dtype=dtype)
+        mode = moderngl.LINEAR if linear else moderngl.NEAREST
+        tex.filter = (mode, mode)
+        tex.repeat_x = tex.repeat_y = False
+        return tex
+
+    def compressed_texture(self, compressed):
+        """A texture holding ASTC blocks as they are (NEAREST, clamped): moderngl checks data
+        against the uncompressed size, so an RGBA8 texture of that size is made and its level 0
+        replaced by glCompressedTexImage2D. Returns (texture, GL error after the upload)."""
+        import moderngl
+
+        upload = self._gl_function("glCompressedTexImage2D", ctypes.c_uint, ctypes.c_int,
+                                   ctypes.c_uint, ctypes.c_int, ctypes.c_int, ctypes.c_int,
+                                   ctypes.c_int, ctypes.c_char_p, required=True)
+        c = compressed
+        tex = self.mgl.texture((c.width, c.height), 4)
+        tex.use(0)
+        upload(GL_TEXTURE_2D, 0, c.internal_format, c.width, c.height, 0, c.nbytes, c.data)
+        error = self.mgl.error
+        tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        tex.repeat_x = tex.repeat_y = False
+        return tex, error
+
+    def depth_buffer(self, size):
+        return self.mgl.depth_renderbuffer(tuple(size))
+
+    def framebuffer(self, colour, depth=None):
+        return self.mgl.framebuffer(color_attachments=[colour], depth_attachment=depth)
+
+    def buffer(self, data):
+        return self.mgl.buffer(data)
+
+    def program(self, vertex, fragment):
+        """Compile and link; a failure raises :class:`ProgramError` with the driver's words."""
+        import moderngl
+
+        try:
+            return self.mgl.program(vertex_shader=vertex, fragment_shader=fragment)
+        except moderngl.Error as error:
+            raise ProgramError(str(error)) from None
+
+    def uniforms(self, program):
+        import moderngl
+
+        out = {}
+        for name in program:
+            member = program[name]
+            if isinstance(member, moderngl.Uniform):
+                out[name] = ActiveUniform(member.gl_type == GL_SAMPLER_2D, member.array_length)
+        return out
+
+    def set_uniform(self, program, name, value):
+        program[name].value = value
+
+    def vertex_array(self, program, content):
+        return self.mgl.vertex_array(program, content)
+
+    def release(self, obj):
+        import moderngl
+
+        if isinstance(obj, moderngl.Framebuffer):
+            # moderngl re-binds the last used framebuffer when it makes the next one; if that one
+            # was deleted, GL answers INVALID_OPERATION. Park on the default framebuffer first.
+            self.mgl.detect_framebuffer(0).use()
+        obj.release()
+
+    # -- work ------------------------------------------------------------------------------------
+
+    def clear(self, framebuffer, colour, depth=None):
+        framebuffer.depth_mask = True  # a depth clear writes through the mask
+        if depth is None:
+            framebuffer.clear(*colour)
+        else:
+            framebuffer.clear(*colour, depth=depth)
+
+    def read(self, texture):
+        return texture.read()
+
+    def write(self, obj, data):
+        obj.write(data)
+
+    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None):
+        """Bind ``textures`` (unit -> texture) and draw ``count`` vertices from ``first`` of
+        ``vertex_array`` as ``primitive`` into ``framebuffer`` under ``state``."""
+        import moderngl
+
+        for unit, texture in textures.items():
+            texture.use(unit)
+        mode = moderngl.POINTS if primitive == "points" else moderngl.TRIANGLES
+        with self.scope(framebuffer, state):
+            if count is None:
+                vertex_array.render(mode)
+            else:
+                vertex_array.render(mode, vertices=count, first=first)
+
+    @contextmanager
+    def scope(self, framebuffer, state):
+        """``state`` for one draw, all switched off again on the way out.
+
+        Point sprites: core profiles and ES always vary gl_PointCoord over a point; by the spec,
+        the compatibility profile that :func:`open_context` prefers does it only with
+        GL_POINT_SPRITE enabled, which moderngl has no flag for, so it is switched through the GL
+        function loader. (Mesa varies it for ES shaders even without the switch.)"""
+        import moderngl
+
+        flags = moderngl.NOTHING
+        if state.blend is not None:
+            flags |= moderngl.BLEND
+        if state.point_size:
+            flags |= moderngl.PROGRAM_POINT_SIZE
+        if state.depth_test:
+            flags |= moderngl.DEPTH_TEST
+        framebuffer.use()
+        framebuffer.depth_mask = bool(state.depth_write)
+        self.mgl.enable_only(flags)
+        if state.blend is not None:
+            self.mgl.blend_func = BLEND_FUNCTIONS[state.blend]
+        point_sprite = state.sprites and self.profile == "compatibility"
+        if point_sprite:
+            self._gl_function("glEnable", ctypes.c_uint)(GL_POINT_SPRITE)
+        try:
+            yield
+        finally:
+            if point_sprite:
+                self._gl_function("glDisable", ctypes.c_uint)(GL_POINT_SPRITE)
+            framebuffer.depth_mask = True
+            self.mgl.enable_only(moderngl.NOTHING)
+
+    def _gl_function(self, name, *argtypes, required=False):
+        """A GL entry point moderngl has no call for, through moderngl's own function loader
+        (loaded once). Where that loader is not there: a no-op for calls that change speed or
+        state moderngl's drivers already have, never results; for a ``required`` one, whose
+        effect is the result (an upload), :class:`~es2particles.errors.CapabilityError`."""
+        if name not in self._gl_calls:
+            loader = getattr(self.mgl.mglo, "_context", None)
+            address = loader.load_opengl_function(name) if loader is not None else 0
+            self._gl_calls[name] = (ctypes.CFUNCTYPE(None, *argtypes)(address) if address
+                                    else None)
+        if self._gl_calls[name] is None:
+            if required:
+                from ..errors import CapabilityError
+
+                raise CapabilityError(f"the GL function {name} cannot be loaded through "
+                                      f"moderngl on the {self.backend} back-end")
+            return lambda *args: None
+        return self._gl_calls[name]
+
+
+class ProgramError(Exception):
+    """A device could not compile or link a program; the message is the driver's."""
+
+
+# --- the recording device ---------------------------------------------------------------------
+
+@dataclass(eq=False)
+class Handle:
+    """An object the recording device made: its kind, number and what it was made with. Textures
+    keep what was written into them, so an upload reads back; a texture never written reads as
+    zeros."""
+
+    device: object = field(repr=False)
+    kind: str
+    number: int
+    size: tuple = None
+    components: int = 4
+    itemsize: int = 1
+    data: bytes = None
+    details: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        size = f" {self.size[0]}x{self.size[1]}" if self.size else ""
+        return f"<{self.kind} {self.number}{size}>"
+
+    # The few moderngl-like members the package reads from its objects.
+    @property
+    def width(self):
+        return self.size[0]
+
+    @property
+    def height(self):
+        return self.size[1]
+
+    def read(self):
+        return self.device.read(self)
+
+    def write(self, data):
+        self.device.write(self, data)
+
+    def release(self):
+        self.device.release(self)
+
+
+@dataclass(frozen=True)
+class Call:
+    """One call the recording device received: ``op`` and its arguments."""
+
+    op: str
+    args: dict
+
+    def __getitem__(self, key):
+        return self.args[key]
+
+
+class RecordingDevice:
+    """A device that draws nothing and records everything (see the module's docstring).
+
+    ``caps`` is the :class:`~es2particles.gl.context.Capabilities` it answers with (by default
+    llvmpipe's figures on this project's machines, with every format renderable and blendable);
+    ``calls`` is the list of :class:`Call` it received, in order.
+    """
+
+    backend, profile = "recording", "core"
+
+    def __init__(self, caps=None):
+        self.caps = caps
+        self.calls = []
+        self.live = set()
+        self._numbers = itertools.count(1)
+        self._programs = {}
+
+    def _record(self, op, **args):
+        self.calls.append(Call(op, args))
+
+    def _handle(self, kind, **kwargs):
+        handle = Handle(self, kind, next(self._numbers), **kwargs)
+        self.live.add(handle.number)
+        return handle
+
+    def of(self, op):
+        """The recorded calls of one kind, in order."""
+        return [c for c in self.calls if c.op == op]
+
+    # -- the context ---------------------------------------------------------------------------
+
+    def info(self):
+        return {}
+
+    def extensions(self):
+        return set(self.caps.extensions) if self.caps is not None else set()
+
+    def error(self):
+        return "GL_NO_ERROR"
+
+    def make_current(self):
+        pass
+
+    def flush(self):
+        self._record("flush")
+
+    def close(self):
+        self._record("close")
+
+    # -- objects -------------------------------------------------------------------------------
+
+    def texture(self, size, components, dtype, data=None, linear=False):
+        itemsize = {"f1": 1, "f2": 2, "f4": 4}[dtype]
+        tex = self._handle("texture", size=tuple(size), components=components, itemsize=itemsize,
+                           details={"dtype": dtype, "linear": linear})
+        self._record("texture", texture=tex, size=tuple(size), dtype=dtype, linear=linear,
+                     data=data is not None)
+        if data is not None:
+            tex.data = bytes(data)
+        return tex
+
+    def compressed_texture(self, compressed):
+        tex = self._handle("texture", size=(compressed.width, compressed.height),
+                           details={"compressed": compressed.block})
+        self._record("compressed texture", texture=tex, block=compressed.block)
+        return tex, "GL_NO_ERROR"
+
+    def depth_buffer(self, size):
+        depth = self._handle("depth buffer", size=tuple(size))
+        self._record("depth buffer", depth=depth)
+        return depth
+
+    def framebuffer(self, colour, depth=None):
+        fbo = self._handle("framebuffer", size=colour.size, details={"colour": colour,
+                                                                      "depth": depth})
+        self._record("framebuffer", framebuffer=fbo, colour=colour, depth=depth)
+        return fbo
+
+    def buffer(self, data):
+        buf = self._handle("buffer", data=bytes(data))
+        self._record("buffer", buffer=buf, nbytes=len(data))
+        return buf
+
+    def program(self, vertex, fragment):
+        program = self._handle("program", details={"vertex": vertex, "fragment": fragment})
+        self._programs[program.number] = _active_uniforms(vertex, fragment)
+        program.details["values"] = {}
+        self._record("program", program=program)
+        return program
+
+    def uniforms(self, program):
+        return dict(self._programs[program.number])
+
+    def set_uniform(self, program, name, value):
+        program.details["values"][name] = value
+
+    def vertex_array(self, program, content):
+        vao = self._handle("vertex array", details={"program": program, "content": content})
+        self._record("vertex array", vertex_array=vao, program=program)
+        return vao
+
+    def release(self, obj):
+        self.live.discard(obj.number)
+        self._record("release", handle=obj)
+
+    # -- work ------------------------------------------------------------------------------------
+
+    def clear(self, framebuffer, colour, depth=None):
+        self._record("clear", framebuffer=framebuffer, colour=tuple(colour), depth=depth)
+
+    def read(self, texture):
+        self._record("read", texture=texture)
+        nbytes = texture.size[0] * texture.size[1] * texture.components * texture.itemsize
+        return texture.data if texture.data is not None else bytes(nbytes)
+
+    def write(self, obj, data):
+        obj.data = bytes(data)
+        self._record("write", handle=obj, nbytes=len(data))
+
+    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None):
+        program = vertex_array.details["program"]
+        self._record("draw", program=program, framebuffer=framebuffer, textures=dict(textures),
+                     uniforms=dict(program.details["values"]), state=state, primitive=primitive,
+                     first=first, count=count)
+
+
+_DECLARATION = re.compile(r"\buniform\s+(?:(?:lowp|mediump|highp)\s+)?(\w+)\s+([^;]+);")
+_COMMENTS = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
+
+
+def _active_uniforms(*sources):
+    """What a linker keeps, as the recording device models it: every uniform declared in the
+    sources that their code refers to outside its declaration (a driver may drop more: one whose
+    result is never written)."""
+    declared, code = {}, []
+    for text in sources:
+        clean = _COMMENTS.sub("", text)
+        for glsl_type, names in _DECLARATION.findall(clean):
+            for name in names.split(","):
+                name = name.strip()
+                length = int(re.search(r"\[(\d+)\]", name).group(1)) if "[" in name else 1
+                declared[name.split("[")[0].strip()] = ActiveUniform(glsl_type == "sampler2D",
+                                                                      length)
+        code.append(re.sub(r"\b(?:uniform|varying|attribute)\b[^;]*;", "", clean))
+    used = set(re.findall(r"[A-Za-z_]\w*", "\n".join(code)))
+    return {name: u for name, u in declared.items() if name in used}

@@ -11,7 +11,7 @@ import importlib
 # name -> module: imported when first asked for, so `import es2particles.cli` (the program) does
 # not import numpy and the GL binding before it has parsed its command line.
 _EXPORTS = {
-    "Capabilities": "gl.context", "Context": "gl.context", "open_context": "gl.context",
+    "Capabilities": "gl.context", "Context": "gl.context", "open_context": "gl.egl",
     "CapabilityError": "errors", "ContextError": "errors", "Es2ParticlesError": "errors",
     "GraphError": "errors", "ParameterError": "errors", "ShaderError": "errors",
     "Pass": "frame.graph", "PassGraph": "frame.graph", "Plan": "frame.graph",

@@ -160,7 +160,7 @@ def _join_negative_values(argv):
 
 
 def _info(args):
-    from .gl.context import open_context
+    from .gl.egl import open_context
 
     with open_context() as ctx:
         print(ctx.caps)
@@ -172,7 +172,7 @@ def _report(args):
 
     gc.enable()  # a long run: console_main's pause of collection is for short start-ups
 
-    from .gl.context import open_context
+    from .gl.egl import open_context
     from .errors import ParameterError
     from .io.output import check_folder
     from .report import run
@@ -269,11 +269,11 @@ def _add_common_arguments(parser, command):
 
 
 def run_of(args):
-    """The :class:`~es2particles.frame.run.Run` of the parsed arguments: the scene's own options,
+    """The :class:`~es2particles.run.Run` of the parsed arguments: the scene's own options,
     and only the frame settings the user typed (the others are the scene's or the framework's
     defaults, resolved once when the frame is planned)."""
     from .frame.plan import FrameSettings
-    from .frame.run import Run
+    from .run import Run
     from .render.post import Bloom
 
     settings = {"particles": args.particles, "size": args.size, "format": args.format,
@@ -303,7 +303,7 @@ def run_of(args):
 
 
 def _plan(args):
-    from .gl.context import open_context
+    from .gl.egl import open_context
 
     run = run_of(args)
     with open_context() as ctx:
@@ -335,7 +335,7 @@ def _run(args):
 
     from .cluster import shares
     from .errors import ParameterError
-    from .gl.context import open_context
+    from .gl.egl import open_context
     from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                             check_video, save_image, save_state)
     from .io.progress import progress

@@ -7,7 +7,7 @@ import os
 import numpy as np
 import pytest
 
-from es2particles.fields import astc
+from es2particles.gl import astc
 from es2particles.gl.command import DrawCommand
 from es2particles.errors import ParameterError
 

@@ -11,12 +11,12 @@ import pytest
 
 from PIL import Image
 
-from es2particles.fields import astc
+from es2particles.gl import astc
 from es2particles.cli import main
 from es2particles.errors import ParameterError
 from es2particles.fields.field3d import (Box, Capsule, Sphere, Torus, VoxelField, load_mesh,
                                   normal_bytes, octahedral_decode, octahedral_encode, parse_shapes)
-from es2particles.report.compression import collision_errors, memory_rows
+from es2particles.scenes.field_compression import collision_errors, memory_rows
 from es2particles.scenes.collision3d import Collision3D, Physics3D
 from es2particles.frame.simulation import Simulation
 from es2particles.twins.collision3d import Object, flight_random, step_reference

@@ -3,7 +3,7 @@
 import moderngl
 import pytest
 
-import es2particles.gl.context as context_module
+import es2particles.gl.egl as context_module
 from es2particles import ContextError, open_context
 
 

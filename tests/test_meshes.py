@@ -14,8 +14,8 @@ from es2particles.errors import ParameterError
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainPhysics
 from es2particles.frame.pipeline import Renderer
-from es2particles.render.meshes import (box, capsule, from_triangles, model_uniform, sphere,
-                                        torus)
+from es2particles.frame.motion import model_uniform
+from es2particles.render.meshes import box, capsule, from_triangles, sphere, torus
 from es2particles.render.sprites import Sprites
 
 ON_SURFACE = 1e-9  # float64 rounding of points a few units from the origin

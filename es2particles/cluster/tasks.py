@@ -1,7 +1,7 @@
 """`es2particles run` on a Dask cluster: ``--workers N`` starts a LocalCluster of N processes,
 ``--scheduler ADDRESS`` joins a running one (``pip install "es2particles[distributed]"``).
 
-Every task gets the run description (``frame/run.py``: the scene, its options, the frame
+Every task gets the run description (``run.py``: the scene, its options, the frame
 settings), so a worker builds exactly the pipeline one process would; nothing here reads argv.
 Each worker process holds one EGL context for its life (made at its first task; the EGL device
 ``worker number mod ES2PARTICLES_DEVICES`` where that is set on a machine with several GPUs);
@@ -54,7 +54,7 @@ def worker_context():
     """This worker thread's GL context, made at its first task and kept."""
     ctx = getattr(_local, "ctx", None)
     if ctx is None:
-        from ..gl.context import open_context
+        from ..gl.egl import open_context
 
         device = None
         devices = int(os.environ.get("ES2PARTICLES_DEVICES", "0") or 0)

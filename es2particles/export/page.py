@@ -229,7 +229,7 @@ def _resource(r, layout, start):
     if r.data is None:
         return entry
     if hasattr(r.data, "block"):  # ASTC blocks, and the texels they decode to
-        from ..fields import astc
+        from ..gl import astc
 
         c = r.data
         entry["data"] = _bytes(astc.decompress(c))

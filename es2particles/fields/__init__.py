@@ -1,2 +1,2 @@
-"""Collision fields: the 2D distance/normal field over a scene rectangle, the 3D voxel field in a
-slice atlas, and ASTC compression of read-only textures."""
+"""Collision fields: the 2D distance/normal field over a scene rectangle and the 3D voxel field in a
+slice atlas, made once in numpy and sampled by the scenes' passes as textures."""

@@ -18,6 +18,7 @@ import numpy as np
 
 from ..errors import Es2ParticlesError, ParameterError, ShaderError
 from ..gl.command import DrawCommand
+from .motion import model_uniform
 from .plan import frame_value
 from .state import StateBuffer, Textures
 
@@ -119,8 +120,6 @@ class Executor:
     def frame(self, camera=None, model=None, step=None):
         """The :class:`Frame` of a render: ``model`` a 4x4 matrix placing the moving meshes
         (None: the plan's motion after ``step`` steps, default the steps done)."""
-        from ..render.meshes import model_uniform
-
         step = self.steps_done if step is None else step
         if model is not None:
             model = model_uniform(model)

@@ -181,10 +181,10 @@ class PassGraph:
 
     def texture(self, name, data):
         """Declare a scene texture: ``data`` is an (h, w, 4) uint8 or float32 array (a collision
-        field, a ramp), or :class:`~es2particles.fields.astc.Compressed` blocks. The simulation uploads
+        field, a ramp), or :class:`~es2particles.gl.astc.Compressed` blocks. The simulation uploads
         it, samples it NEAREST and owns it; a pass that lists ``name`` in ``textures=`` samples it
         as ``u_<name>``."""
-        from ..fields.astc import Compressed
+        from ..gl.astc import Compressed
 
         if not (isinstance(name, str) and name.isidentifier()):
             raise ParameterError(f"texture name must be a GLSL identifier, got {name!r}")

@@ -31,6 +31,7 @@ from ..gl.bindings import generated_values, pass_interface, uniform_value
 from ..gl.context import Capabilities, bytes_per_texel
 from ..gl.device import DrawState
 from .graph import format_bytes
+from .motion import IDENTITY
 from .state import FORMATS, Layout
 
 ROUNDINGS = ("nearest", "dither")
@@ -195,8 +196,6 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
     if name == "step":
         return float(step)
     if name == "model":
-        from ..render.meshes import IDENTITY
-
         return IDENTITY if model is None else model
     if name in ("sprite_size", "light_size"):
         lo, hi = caps.point_size_range
@@ -221,6 +220,17 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
 
 
 # --- settings -----------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Defaults:
+    """A scene's defaults of the frame settings, used where a run leaves them as DEFAULT."""
+
+    particles: int = 2 ** 20
+    point_size: float = 1.0
+    steps: int = 1  # simulation steps before the first frame
+    rounding: str = "nearest"
+
+
 
 class _Default:
     """A setting left to the scene or the framework (``FrameSettings``)."""

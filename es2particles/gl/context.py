@@ -1,12 +1,11 @@
-"""The headless GL context: making one, reporting what it can do, and owning its GL objects.
+"""The context: the one owner of the GL objects made through it, and what it can do.
 
-:func:`open_context` tries moderngl's EGL back-end first (no display needed: Mesa llvmpipe on a
-machine without a GPU, the vendor's driver where there is one), then the other standalone back-ends.
-The returned :class:`Context` is the one owner of every texture, framebuffer, buffer and program the
-package makes, counts them, and releases them all on ``release()`` or at the end of a ``with``.
+A :class:`Context` holds a device (``device.py``: GL through moderngl, or a recording one), makes
+every texture, framebuffer, buffer and program of the package through it, counts them, and
+releases them all on ``release()`` or at the end of a ``with``. Its :class:`Capabilities` are
+probed once (``egl.py``, where a context is opened) or stated (``Capabilities.assumed``).
 """
 
-import os
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -14,11 +13,6 @@ import numpy as np
 from ..errors import CapabilityError, ContextError, ParameterError
 from .shaders import compile_program
 
-INSTALL_HINT = (
-    "install a GL driver with EGL: on Debian/Ubuntu 'apt-get install libegl1 libgl1 "
-    "libgl1-mesa-dri libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also "
-    "works)"
-)
 # Formats the state may use: name -> moderngl dtype (four components).
 FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
 # Every texture format made here: name -> (components, moderngl dtype). r32f is for the density
@@ -35,67 +29,6 @@ def numpy_dtype(fmt):
 def bytes_per_texel(fmt):
     components, dtype = TEXTURE_FORMATS[fmt]
     return components * np.dtype(_NUMPY[dtype]).itemsize
-
-
-def _backends():
-    """Back-ends to try, in order; ES2PARTICLES_BACKEND picks one (egl, or '' for the default)."""
-    forced = os.environ.get("ES2PARTICLES_BACKEND")
-    if forced is not None:
-        return [forced or None]
-    return ["egl", None]
-
-
-# Profiles to ask for, in order, with the GL version requested. A request for 3.0 names no
-# profile, and drivers answer it with their newest compatibility-profile context. There, points
-# that are not sprites follow the legacy point rules, which llvmpipe rasterises as rectangles:
-# 2^20 one-pixel points draw ~25% faster than through the quad path that core profiles force (every
-# point is a sprite in core GL and in ES). The core profile is the fallback.
-PROFILES = (("compatibility", 300), ("core", 330))
-MIN_GL_VERSION = 330  # what moderngl itself needs
-
-
-def _profiles():
-    """Profiles to try; ES2PARTICLES_PROFILE (compatibility or core) asks for one alone."""
-    forced = os.environ.get("ES2PARTICLES_PROFILE")
-    if forced is None:
-        return PROFILES
-    chosen = [p for p in PROFILES if p[0] == forced]
-    if not chosen:
-        raise ContextError(f"ES2PARTICLES_PROFILE must be one of "
-                           f"{[p for p, _ in PROFILES]}, got {forced!r}")
-    return chosen
-
-
-def open_context(device=None):
-    """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install.
-    ``device``: the index of the EGL device to render on, where a machine has several GPUs
-    (None: the driver's first)."""
-    import moderngl
-
-    failures = []
-    for backend in _backends():
-        kwargs = {"standalone": True}
-        if backend:
-            kwargs["backend"] = backend
-        if device is not None and backend == "egl":
-            kwargs["device_index"] = int(device)
-        errors = []
-        for profile, version in _profiles():
-            try:
-                mgl = moderngl.create_context(require=version, **kwargs)
-            except Exception as error:  # the binding raises bare Exceptions with the loader's words
-                errors.append(str(error).strip() or type(error).__name__)
-                continue
-            if mgl.version_code >= MIN_GL_VERSION:
-                from .device import GLDevice
-
-                return Context(GLDevice(mgl, backend or "default", profile))
-            errors.append(f"{profile} profile is GL {mgl.version_code}, below {MIN_GL_VERSION}")
-            mgl.release()
-        unique = list(dict.fromkeys(errors))  # a missing library fails both profiles alike
-        failures.append(f"{backend or 'default'}: " + "; ".join(unique))
-    raise ContextError("no headless OpenGL context could be made; " + INSTALL_HINT
-                       + "\n  tried: " + "\n  tried: ".join(failures))
 
 
 @dataclass
@@ -202,12 +135,8 @@ class Context:
     (``Context(RecordingDevice())``: the executor's call stream with no GL library loaded).
     """
 
-    def __init__(self, device, backend=None, profile=None):
-        if not hasattr(device, "draw"):  # a bare moderngl context, as earlier versions took
-            from .device import GLDevice
-
-            device = GLDevice(device, backend or "egl", profile or "core")
-        self.device = device
+    def __init__(self, device, probe=None):
+        self.device, self._probe = device, probe
         self.backend, self.profile = device.backend, device.profile
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         Context._current = self  # a new context is current
@@ -310,10 +239,10 @@ class Context:
                                             linear=not filter_nearest))
 
     def compressed_texture(self, compressed):
-        """A 2D texture holding :class:`~es2particles.fields.astc.Compressed` ASTC blocks as they
+        """A 2D texture holding :class:`~es2particles.gl.astc.Compressed` ASTC blocks as they
         are, NEAREST-sampled and clamped; :class:`CapabilityError` where the driver cannot take
         them."""
-        from ..fields import astc  # only compressed fields need it: not imported at start-up
+        from . import astc  # only compressed fields need it: not imported at start-up
 
         if not isinstance(compressed, astc.Compressed):
             raise ParameterError(f"compressed must be an astc.Compressed (see astc.compress), got "
@@ -390,7 +319,10 @@ class Context:
         """The :class:`Capabilities` report, probed once."""
         if self._caps is None:
             given = getattr(self.device, "caps", None)
-            self._caps = given if given is not None else _probe(self)
+            if given is None and self._probe is None:
+                raise ContextError("this context's capabilities are neither stated by its device "
+                                   "nor probed: open it with open_context()")
+            self._caps = given if given is not None else self._probe(self)
         return self._caps
 
     def require_format(self, fmt, blend=False):
@@ -406,94 +338,6 @@ class Context:
 _TYPE_NAMES = {"texture": "Texture", "framebuffer": "Framebuffer", "buffer": "Buffer",
                "program": "Program", "vertex array": "VertexArray",
                "depth buffer": "Renderbuffer"}
-
-
-def read_rgb(texture):
-    """An RGBA8 texture as an (h, w, 3) uint8 image, top row first (GL's first row is the
-    bottom)."""
-    w, h = texture.size
-    pixels = np.frombuffer(texture.read(), dtype=np.uint8).reshape(h, w, 4)
-    return pixels[::-1, :, :3].copy()
-
-
-def _probe(ctx):
-    info = ctx.device.info()
-    caps = Capabilities(
-        backend=ctx.backend,
-        profile=ctx.profile,
-        vendor=str(info.get("GL_VENDOR", "?")),
-        renderer=str(info.get("GL_RENDERER", "?")),
-        version=str(info.get("GL_VERSION", "?")),
-        max_texture_size=int(info.get("GL_MAX_TEXTURE_SIZE", 0)),
-        max_vertex_texture_units=int(info.get("GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS", 0)),
-        point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
-        extensions=frozenset(ctx.device.extensions()),
-        probe_store_rule=lambda: _probe_store_rule(ctx),
-    )
-
-    def probe(fmt):
-        renderable, blendable = _probe_format(ctx, fmt)
-        dict.__setitem__(caps.renderable, fmt, renderable)
-        dict.__setitem__(caps.blendable, fmt, blendable)
-
-    caps.renderable, caps.blendable = FormatFlags(probe), FormatFlags(probe)
-    return caps
-
-
-def _draw_constant(ctx, fmt, colour, blends=1):
-    """Render a constant colour into a 4x4 target of ``fmt``: once, then ``blends`` times more
-    with additive blending; the first texel after each draw, as float64 (r32f: only .r means
-    anything)."""
-    from .command import DrawCommand
-    from .device import DrawState
-
-    group = ctx.group()
-    try:
-        tex = group.texture((4, 4), fmt)
-        fbo = group.framebuffer(tex)
-        ctx.clear(fbo, (0, 0, 0, 0))
-        command = DrawCommand(group, "format probe", "lib/constant.frag")
-        command.set("u_colour", tuple(colour))
-        components = TEXTURE_FORMATS[fmt][0]
-        texels = []
-        for draw in range(1 + blends):
-            command.state = DrawState(blend="add" if draw else None)
-            command.draw(fbo, {})
-            texel = np.frombuffer(ctx.read(tex), dtype=numpy_dtype(fmt)).reshape(-1, components)[0]
-            texels.append(np.resize(texel.astype(np.float64), 4))
-        return texels
-    finally:
-        group.release()
-
-
-def _probe_format(ctx, fmt):
-    """(renderable, blendable): one draw of 0.25 must store 0.25 (64 in RGBA8), and one more
-    blended onto it must make 0.5 (128)."""
-    try:
-        once, twice = _draw_constant(ctx, fmt, (0.25, 0.5, 2.0, 1.0))
-    except Exception:
-        return False, False
-    if ctx.error() != "GL_NO_ERROR":
-        return False, False
-    if fmt == "rgba8":
-        return bool(once[0] == 64), bool(twice[0] == 128)
-    return bool(abs(once[0] - 0.25) < 1e-3), bool(abs(twice[0] - 0.5) < 1e-3)
-
-
-def _probe_store_rule(ctx):
-    """Which model of float -> byte conversion the driver's RGBA8 stores follow.
-
-    Channel values are chosen between the models' answers: (10.6)/255 gives 11 under rounding and
-    10 under truncation or floor(256c); (200.7)/255 gives 200 under truncation and 201 otherwise.
-    """
-    from ..twins.pack import store_unorm8
-
-    colour = np.array([10.6, 200.7, 100.3, 254.9], dtype=np.float32) / np.float32(255)
-    got = _draw_constant(ctx, "rgba8", colour, blends=0)[0]
-    for rule in ("round", "truncate", "floor256"):
-        if np.array_equal(store_unorm8(colour, rule), got):
-            return "round-to-nearest" if rule == "round" else rule
-    return "unknown (bytes %s)" % got.astype(int).tolist()
 
 
 class ProgramValues:

@@ -9,8 +9,6 @@ constant into the density target with additive blending, so the target holds den
 
 from dataclasses import dataclass
 
-import numpy as np
-
 from ..errors import CapabilityError, ParameterError, check_range
 from ..frame.plan import MAX_ACCUMULATE, Ref, Rendering, Resource, Stage
 from ..gl.bindings import generated_values, stage_interface
@@ -129,19 +127,3 @@ class Density(Rendering):
         return plan_post(b, "density", mean, b.setting("exposure", 4.0),
                          b.setting("gradient", "inferno"), b.setting("bloom", Bloom()),
                          self.background)
-
-
-def tile_order(positions, view, size, tile=64):
-    """The draw order that puts particles tile by tile (``tile`` pixels square) of an image of
-    ``size`` over ``view``, from their world ``positions`` (count, 2). Rasterising points in
-    framebuffer order cuts the draw on llvmpipe by ~10% (2^20 reseeded de Jong points in slices:
-    68 -> 61 ms; before the draw was sliced, 190 -> 120-150 ms). It pays where positions repeat
-    from frame to frame, as in reseeded de Jong, and is done once, outside the per-frame loop.
-    (Before each still of a chaotic stateful run, the readback and sort cost more than they
-    save.)"""
-    x0, y0, x1, y1 = view
-    w, h = size
-    px = np.clip(((positions[:, 0] - x0) / (x1 - x0) * w).astype(np.int64), 0, w - 1)
-    py = np.clip(((positions[:, 1] - y0) / (y1 - y0) * h).astype(np.int64), 0, h - 1)
-    key = ((py // tile) * (-(-w // tile)) + px // tile).astype(np.uint16)
-    return np.argsort(key, kind="stable")  # radix sort on 16-bit keys: ~8 ms at 2^20

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
+from ..frame.plan import Defaults
 
 
 def parse_numbers(option, text, counts):
@@ -31,16 +32,6 @@ def parse_numbers(option, text, counts):
         raise ParameterError(f"--{option} must be {' or '.join(map(str, counts))} numbers "
                              f"separated by commas, got {text!r}")
     return values
-
-
-@dataclass(frozen=True)
-class Defaults:
-    """A scene's defaults, used where the caller gives None."""
-
-    particles: int = 2 ** 20
-    point_size: float = 1.0
-    steps: int = 1  # simulation steps before the first frame
-    rounding: str = "nearest"
 
 
 def steady_steps(physics):

@@ -128,7 +128,7 @@ class Physics3D:
 
 def parse_field_format(text):
     """None for an uncompressed field format, else the ASTC block (w, h) of ``astcWxH``."""
-    from ..fields.astc import BLOCKS
+    from ..gl.astc import BLOCKS
 
     if text in FIELD_FORMATS:
         return None
@@ -258,7 +258,7 @@ class Collision3D(Scene):
         """The passes; the atlas fits the context's largest texture (``caps``; None: 4096 and no
         ASTC) and the field is ASTC-compressed where the context decodes it and astcenc encodes
         it (else uncompressed, and the plan says why)."""
-        from ..fields import astc
+        from ..gl import astc
 
         max_size = caps.max_texture_size if caps is not None else 4096
         missing = (astc.unavailable(caps) if caps is not None else "no context to ask") \
@@ -321,7 +321,7 @@ class Collision3D(Scene):
 
     def motion(self):
         """The object's motion: its spin about the field's pivot, its sway and its scale."""
-        from ..render.meshes import Motion
+        from ..frame.motion import Motion
 
         p = self.physics
         if not (self.moves or p.scale != 1):
@@ -364,8 +364,8 @@ class Collision3D(Scene):
         over a fixed run of this scene's field (see report/compression.py)."""
         from dataclasses import replace
 
-        from ..fields import astc
-        from ..report import compression
+        from ..gl import astc
+        from . import field_compression as compression
 
         missing = astc.unavailable(ctx)
         still = replace(self.physics, jitter=0.0, spin=(0.0, 0.0, 0.0, 1.0),

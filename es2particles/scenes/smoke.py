@@ -248,7 +248,7 @@ class Smoke(Scene):
 
     def motion(self):
         """The sphere's sway about its rest centre (``twins/smoke.py``: ``sphere``)."""
-        from ..render.meshes import Motion
+        from ..frame.motion import Motion
 
         p = self.physics
         return Motion(p.dt, offset=tuple(map(float, p.sphere[:3])),

@@ -18,7 +18,7 @@ branch dominate a maximum, and the median is the figure to compare.
 
 import numpy as np
 
-from ..fields.astc import BLOCKS
+from ..gl.astc import BLOCKS
 from ..fields.field3d import TriangleMesh, atlas_layout
 from ..frame.simulation import Simulation
 

@@ -1,5 +1,8 @@
 """A run as data: which scene with which of its own options, the frame settings, and the frames.
 
+It sits above the scenes and the frame (it names a scene and makes its pipeline) and below what
+takes runs: the command line, the WebGL export, the shares of a large still and the cluster.
+
 :class:`Run` is what the command line makes of its arguments (once, in ``cli.py``) and what
 everything below it takes: the pipeline, the WebGL export, the shares of a large still and the
 Dask tasks, which receive a run, never argv to parse again. It pickles, so a cluster's workers
@@ -9,8 +12,8 @@ build exactly the pipeline one process would.
 from argparse import Namespace
 from dataclasses import dataclass, field, replace
 
-from ..errors import ParameterError, check_range
-from .plan import FrameSettings
+from .errors import ParameterError, check_range
+from .frame.plan import FrameSettings
 
 MAX_FRAMES = 100000
 MAX_STEPS_PER_FRAME = 10 ** 6
@@ -37,7 +40,7 @@ class Run:
         object.__setattr__(self, "fps", check_range("fps", self.fps, 0.1, 1000))
 
     def scene_class(self):
-        from ..scenes import scene_class
+        from .scenes import scene_class
 
         cls = scene_class(self.scene)
         if cls is None:
@@ -52,7 +55,7 @@ class Run:
         """(scene, :class:`~es2particles.frame.pipeline.Pipeline`) of this run on ``ctx``, with
         ``changes`` to its settings (a share of a still: its particles, its share, intensity
         1)."""
-        from .pipeline import Pipeline
+        from .frame.pipeline import Pipeline
 
         scene = self.make_scene()
         return scene, Pipeline(ctx, scene, settings=replace(self.settings, **changes))

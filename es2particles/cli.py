@@ -306,8 +306,9 @@ def _plan(args):
     from .gl.egl import open_context
 
     run = run_of(args)
+    scene = run.check()
     with open_context() as ctx:
-        scene, pipeline = run.pipeline(ctx)
+        scene, pipeline = run.pipeline(ctx, scene)
         with pipeline:
             print(pipeline.describe())
 
@@ -322,7 +323,7 @@ def _export(args):
         raise ParameterError("--animate-to: a page has no frame count to animate over; move "
                              "its sliders instead")
     run = run_of(args)
-    plan = page_plan(run.make_scene(), run.settings)
+    plan = page_plan(run.check(), run.settings)
     write_page(plan, out)
     print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "
           f"{plan['layout']['count']} particles, {len(plan['stages'])} stages a frame; open it "
@@ -335,6 +336,7 @@ def _run(args):
 
     from .cluster import shares
     from .errors import ParameterError
+    from .frame.plan import MAX_SIZE, parse_size
     from .gl.egl import open_context
     from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                             check_video, save_image, save_state)
@@ -352,6 +354,9 @@ def _run(args):
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
     _note_static_animation(args, frames)
+    scene = run.check()
+    if frames > 1:  # before any work: the video extra, even sides
+        check_video(out, parse_size(run.settings.get("size", (1024, 1024)), MAX_SIZE))
     sizes = shares.share_sizes(run, save_state=args.save_state is not None)
     if args.workers is not None or args.scheduler is not None:
         where = _run_on_cluster(args, run, out, sizes)
@@ -366,11 +371,9 @@ def _run(args):
                   f"{len(sizes)} shares of at most {shares.SHARE}) in "
                   f"{time.perf_counter() - start:.2f} s")
             return
-        scene, pipeline = run.pipeline(ctx)
+        scene, pipeline = run.pipeline(ctx, scene)
         with pipeline:
             _note_sparse(pipeline)
-            if frames > 1:
-                check_video(out, pipeline.size)  # before the frames: the extra, even sides
             drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
             if frames == 1:
                 next(drawn)
@@ -398,8 +401,6 @@ def _run_on_cluster(args, run, out, sizes):
     (None: one pipeline); returns where it ran, for the last line."""
     from .cluster import tasks
     from .errors import CapabilityError, ParameterError, check_range
-    from .frame.plan import parse_size
-    from .io.output import check_video
 
     if args.workers is not None and args.scheduler is not None:
         raise ParameterError("give --workers (a new local cluster) or --scheduler (a running "
@@ -412,8 +413,6 @@ def _run_on_cluster(args, run, out, sizes):
     missing = tasks.available()
     if missing:
         raise CapabilityError(missing)
-    if run.frames > 1:
-        check_video(out, parse_size(args.size or "1024x1024", 2 ** 16))  # workers check theirs
     client = tasks.connect(workers=args.workers, scheduler=args.scheduler)
     try:
         count = tasks.workers(client)

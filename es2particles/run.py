@@ -51,13 +51,23 @@ class Run:
         """The scene of this run."""
         return self.scene_class().from_args(Namespace(**self.options))
 
-    def pipeline(self, ctx, **changes):
-        """(scene, :class:`~es2particles.frame.pipeline.Pipeline`) of this run on ``ctx``, with
-        ``changes`` to its settings (a share of a still: its particles, its share, intensity
-        1)."""
-        from .frame.pipeline import Pipeline
+    def check(self):
+        """The scene of this run, made (its options checked), with the run's settings checked
+        against it: everything that needs no GL context, so bad input fails before one is
+        opened."""
+        from .frame.plan import check_settings
 
         scene = self.make_scene()
+        check_settings(self.settings, scene)
+        return scene
+
+    def pipeline(self, ctx, scene=None, **changes):
+        """(scene, :class:`~es2particles.frame.pipeline.Pipeline`) of this run on ``ctx`` (the
+        ``scene`` made already, or made here), with ``changes`` to its settings (a share of a
+        still: its particles, its share, intensity 1)."""
+        from .frame.pipeline import Pipeline
+
+        scene = self.make_scene() if scene is None else scene
         return scene, Pipeline(ctx, scene, settings=replace(self.settings, **changes))
 
     def with_settings(self, **changes):

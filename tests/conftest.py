@@ -1,10 +1,17 @@
-"""Shared fixtures: one real headless GL context per session, and a GL-error check per test."""
+"""Shared fixtures: one real headless GL context per session, a GL-error check per test, a
+recording context for the executor's call stream, and the test tiers.
+
+Tiers (markers, registered in pyproject.toml): ``gl`` needs a GL context (every test that takes
+the ``ctx`` or ``gl`` fixture is marked here; a module that opens contexts itself marks itself),
+``browser`` needs Chromium, ``slow`` takes more than a few seconds. ``pytest -m "not gl and not
+browser"`` is the fast tier: plans, bindings, the executor on a recording device, numpy twins and
+the command line's refusals, with no GL library loaded. The README's test command runs them all.
+"""
 
 import os
 import shutil
 from pathlib import Path
 
-import moderngl
 import numpy as np
 import pytest
 
@@ -12,6 +19,26 @@ from es2particles import open_context
 
 TEST_SHADERS = Path(__file__).parent / "shaders"
 OUT = Path(__file__).resolve().parent.parent / "out" / "tests"
+
+
+def pytest_collection_modifyitems(config, items):
+    """Every test that takes a GL context is in the ``gl`` tier."""
+    for item in items:
+        if {"ctx", "gl"} & set(getattr(item, "fixturenames", ())):
+            item.add_marker(pytest.mark.gl)
+
+
+@pytest.fixture
+def recording():
+    """A context over a recording device (``gl/device.py``): no GL library is loaded, nothing is
+    drawn, every call is recorded in ``recording.device.calls``; the capabilities are stated
+    (``Capabilities.assumed()``: every format renderable and blendable)."""
+    from es2particles.gl.context import Capabilities, Context
+    from es2particles.gl.device import RecordingDevice
+
+    context = Context(RecordingDevice(Capabilities.assumed()))
+    yield context
+    context.release()
 
 
 @pytest.fixture(scope="session")
@@ -52,7 +79,7 @@ def run_fullscreen(ctx, frag, source, out_fmt="rgba8", uniforms=None):
         for name, value in (uniforms or {}).items():
             prog[name].value = value
         fbo.use()
-        vao.render(moderngl.TRIANGLES)
+        vao.render()
         dtype = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}[out_fmt]
         return np.frombuffer(target.read(), dtype=dtype).reshape(-1, 4).copy()
     finally:

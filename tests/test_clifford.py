@@ -1,6 +1,7 @@
 """The Clifford attractor against an independent float64 numpy run of its map, as de Jong's."""
 
 import numpy as np
+import pytest
 
 from conftest import run_scene
 from es2particles import Simulation
@@ -78,6 +79,7 @@ def test_reseeded_clifford_matches_float64_per_particle(gl):
     assert error <= bound, (error, bound)
 
 
+@pytest.mark.gl
 def test_cli_runs_clifford(tmp_path, capsys):
     out = tmp_path / "c.png"
     assert main(["run", "clifford", "--a", "-1.4", "--b", "1.6", "--c", "1.0", "--d", "0.7",

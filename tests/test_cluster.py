@@ -16,6 +16,8 @@ from es2particles.cli import build_parser, main, run_of
 from es2particles.scenes.attractor import jitter
 from es2particles.scenes.dejong import DeJong
 
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
 distributed = pytest.importorskip("distributed")
 
 SMALL = ["--size", "64x64"]

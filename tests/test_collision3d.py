@@ -389,6 +389,7 @@ def test_bad_options_are_one_line(tmp_path, capsys, args, message):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.gl
 def test_run_draws_the_object_and_the_particles(tmp_path):
     out = tmp_path / "c.png"
     assert main(["run", "collision3d", *SMALL, "--spin", "45", "--out", str(out)]) == 0
@@ -401,6 +402,7 @@ def test_run_draws_the_object_and_the_particles(tmp_path):
     assert np.count_nonzero((b > 150) & (b > r + 10)) > 5
 
 
+@pytest.mark.gl
 def test_plan_prints_the_compression_table(capsys):
     assert main(["plan", "collision3d", "--particles", "1024", "--field-resolution", "24"]) == 0
     text = capsys.readouterr().out

@@ -20,6 +20,7 @@ def test_capabilities_are_reported(gl):
         assert label in text
 
 
+@pytest.mark.gl
 def test_no_context_says_what_to_install(monkeypatch):
     def no_gl(*args, **kwargs):
         raise Exception("libEGL.so: cannot open shared object file")
@@ -67,6 +68,7 @@ def test_core_profile_is_the_fallback(monkeypatch):
         ctx.release()
 
 
+@pytest.mark.gl
 def test_context_releases_everything_and_twice_is_safe():
     ctx = open_context()
     ctx.texture((4, 4))
@@ -77,6 +79,7 @@ def test_context_releases_everything_and_twice_is_safe():
     assert ctx.live_objects() == {}
 
 
+@pytest.mark.gl
 def test_formats_are_probed_when_first_asked_for_and_alike_either_way():
     """A run probes only the formats it uses; a format asked for late gets the same answer as a
     report that probes them all (both are real draws into a target of that format)."""

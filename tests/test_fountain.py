@@ -124,6 +124,7 @@ def test_a_particle_behind_the_cube_is_hidden_one_in_front_is_not(gl):
         assert b > 100, "the cube is there"
 
 
+@pytest.mark.gl
 def test_cli_fountain_still_and_orbit(tmp_path, capsys):
     from PIL import Image
 
@@ -184,6 +185,7 @@ with open_context() as ctx:
 """
 
 
+@pytest.mark.gl
 def test_sprites_are_the_same_in_the_core_and_the_compatibility_profile():
     """Point sprites differ between profiles: the compatibility profile's spec gives
     gl_PointCoord only with GL_POINT_SPRITE enabled, core always. Both must draw the same

@@ -54,6 +54,7 @@ def test_gravity_errors_name_the_value_typed(tmp_path, capsys):
     assert "gravity must be finite, got inf" in capsys.readouterr().err
 
 
+@pytest.mark.gl
 def test_a_write_that_fails_after_the_work_is_one_line(tmp_path, capsys, monkeypatch):
     from es2particles.io import output
 
@@ -67,6 +68,7 @@ def test_a_write_that_fails_after_the_work_is_one_line(tmp_path, capsys, monkeyp
     assert "Traceback" not in err and list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.gl
 def test_an_interrupt_is_one_line_and_leaves_no_file(tmp_path, capsys, monkeypatch):
     from es2particles.frame import pipeline
 
@@ -87,6 +89,7 @@ def test_progress_in_a_log_has_no_carriage_returns(capsys):
     assert "\r" not in err and 2 <= err.count("\n") <= 11 and "frames: 50/50" in err
 
 
+@pytest.mark.gl
 def test_sigterm_during_an_animation_leaves_no_part_file(tmp_path):
     import signal
     import subprocess
@@ -140,6 +143,7 @@ def test_library_seams_raise_named_errors(gl, tmp_path):
     assert list(p.name for p in tmp_path.iterdir()) == ["bad.frag"]
 
 
+@pytest.mark.gl
 def test_frames_without_animate_to_get_a_note(tmp_path, capsys):
     args = ["run", "dejong", *SMALL, "--frames", "2", "--out"]
     assert main(args + [str(tmp_path / "a.webp")]) == 0
@@ -172,6 +176,7 @@ def test_a_long_warm_up_shows_progress_and_runs_every_step(capsys):
     assert quick.done == 50 and capsys.readouterr().err == ""
 
 
+@pytest.mark.gl
 def test_a_sparse_picture_gets_a_hint(tmp_path, capsys):
     assert main(["run", "dejong", "--particles", "256", "--size", "64x64", "--steps", "1",
                  "--out", str(tmp_path / "x.png")]) == 0
@@ -181,6 +186,7 @@ def test_a_sparse_picture_gets_a_hint(tmp_path, capsys):
     assert "sparse" not in capsys.readouterr().err
 
 
+@pytest.mark.gl
 def test_the_default_bloom_shows(tmp_path):
     from PIL import Image
 
@@ -208,6 +214,7 @@ def test_a_report_onto_a_folder_named_report_md_is_refused(tmp_path, capsys):
     assert "is a folder" in capsys.readouterr().err
 
 
+@pytest.mark.gl
 def test_a_later_run_removes_what_a_killed_one_left(tmp_path):
     (tmp_path / ".x.png.abc123.part").write_bytes(b"half")
     (tmp_path / ".a.webp.xyz.frames").mkdir()
@@ -218,6 +225,7 @@ def test_a_later_run_removes_what_a_killed_one_left(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.webp", "x.png"]
 
 
+@pytest.mark.gl
 def test_an_output_that_is_a_symlink_is_replaced_not_written_through(tmp_path):
     victim = tmp_path / "victim.txt"
     victim.write_text("keep me")

@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
 NOTEBOOK = Path(__file__).resolve().parent.parent / "demos" / "notebook.ipynb"
 
 

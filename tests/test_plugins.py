@@ -9,6 +9,10 @@ import subprocess
 import sys
 import zipfile
 
+import pytest
+
+pytestmark = [pytest.mark.gl, pytest.mark.slow]
+
 SCENE = '''"""A tiny plug-in scene: particles spiral towards the centre."""
 from importlib.resources import files
 

@@ -28,6 +28,7 @@ def test_readme_has_python_examples():
     assert len(python_blocks()) >= 2
 
 
+@pytest.mark.gl
 @pytest.mark.parametrize("index", range(len(python_blocks())))
 def test_every_python_block_of_the_readme_runs(index, tmp_path):
     """Each block runs as a user would: a fresh folder, the installed package, a new process."""

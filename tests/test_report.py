@@ -1,6 +1,7 @@
 """The report: the integrator's order against an exact solution, and `report --quick` end to end."""
 
 import numpy as np
+import pytest
 
 from es2particles.report import measure
 from es2particles.cli import main
@@ -26,6 +27,8 @@ def test_projectile_reference_matches_a_fine_numpy_integration():
     assert np.abs(measure.projectile(x0, v0, t, g, k) - x).max() < 1e-5
 
 
+@pytest.mark.gl
+@pytest.mark.slow
 def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path, capsys, monkeypatch):
     # In an empty folder, with the default --out (out/report): the folders are made.
     monkeypatch.chdir(tmp_path)

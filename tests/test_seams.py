@@ -77,6 +77,7 @@ def test_one_output_may_be_named_by_a_string(gl):
         assert sim.plan.outputs == ("position",)
 
 
+@pytest.mark.gl
 def test_python_dash_m_runs_the_command_line():
     result = subprocess.run([sys.executable, "-m", "es2particles", "plan", "dejong",
                              "--particles", "16", "--size", "8x8"], capture_output=True, text=True)

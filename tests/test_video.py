@@ -10,6 +10,7 @@ from es2particles.io.output import AnimationWriter
 imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
 
 
+@pytest.mark.gl
 def test_the_issues_command_writes_an_mp4_of_12_frames(tmp_path):
     out = tmp_path / "a.mp4"
     assert main(["run", "dejong", "--particles", "65536", "--size", "256x256", "--frames", "12",

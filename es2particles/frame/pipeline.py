@@ -278,7 +278,7 @@ class Renderer:
         self.executor = None
         self.ctx, self.rendering, self.sim = ctx, rendering, sim
         settings = settings_of(settings, **given)
-        b = PlanBuilder("rendering", settings, ctx.caps)
+        b = PlanBuilder("rendering", settings, ctx.caps, rendering.settings)
         b.graph_plan, b.layout, b.format = sim.plan, sim.layout, sim.fmt
         b.format_note, b.rounding = sim.format_note, sim.rounding
         b.size = parse_size(b.setting("size", (1024, 1024)), ctx.caps.max_texture_size)
@@ -290,11 +290,11 @@ class Renderer:
         if missing:
             raise ParameterError(f"the renderer reads {', '.join(missing)}, which the "
                                  f"simulation does not hold (it holds {', '.join(sim.buffers)})")
-        present = rendering.plan(b, defaults or Defaults())
-        unused = [n for n in settings.given() if n not in b.used]
+        unused = [n for n in settings.given() if n not in b.uses]
         if unused:
             raise ParameterError(f"{', '.join(unused)}: this rendering does not use "
                                  f"{'it' if len(unused) == 1 else 'them'} ({rendering.kind})")
+        present = rendering.plan(b, defaults or Defaults())
         self.plan = b.finish(present=present, size=b.size, motion=motion)
         self.size = b.size
         self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))

@@ -37,7 +37,6 @@ from .state import FORMATS, Layout
 ROUNDINGS = ("nearest", "dither")
 AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
 MAX_STEPS = 10 ** 7
-MAX_ACCUMULATE = 10 ** 6
 
 
 # --- the plan's parts ---------------------------------------------------------------------------
@@ -312,7 +311,7 @@ def resolve_format(caps, fmt):
                 return candidate, f"{candidate} (auto: the most precise renderable format)"
     if fmt not in FORMATS:
         raise ParameterError(f"format must be one of {sorted(FORMATS)} or 'auto', got {fmt!r}")
-    if not caps.renderable.get(fmt):
+    if caps is not None and not caps.renderable.get(fmt):
         raise CapabilityError(f"format {fmt!r} cannot be rendered to on {caps.renderer}")
     return fmt, fmt
 
@@ -442,10 +441,11 @@ class PlanBuilder:
     vertex data and stages, with names checked unique; which settings were used; what was
     switched off."""
 
-    def __init__(self, scene_name, settings, caps):
+    def __init__(self, scene_name, settings, caps, uses=()):
         self.scene_name, self.settings, self.caps = scene_name, settings, caps
+        self.uses = set(COMMON_SETTINGS) | set(uses)
         self.resources, self.vertices, self.stages = {}, {}, []
-        self.used, self.left_out, self.notes = set(), [], []
+        self.left_out, self.notes = [], []
         self.layout = self.format = self.format_note = self.rounding = self.graph_plan = None
         self.pass_graph = None
         self.size, self.accumulate = None, 1
@@ -461,8 +461,11 @@ class PlanBuilder:
                          **more)
 
     def setting(self, name, default):
-        """Setting ``name`` (its default where it was not given), marked as used."""
-        self.used.add(name)
+        """Setting ``name`` (its default where it was not given): one the rendering declares it
+        uses (``Rendering.settings``), or every frame's."""
+        if name not in self.uses:
+            raise GraphError(f"the rendering reads setting {name!r} but does not declare it "
+                             f"(Rendering.settings: {', '.join(sorted(self.uses))})")
         return self.settings.get(name, default)
 
     def resource(self, resource):
@@ -579,24 +582,56 @@ def plan_graph(graph, count, outputs=None, fmt="rgba8", rounding="nearest", caps
     return b.finish(present=None)
 
 
+# Settings every frame uses; a rendering declares the others it uses (``Rendering.settings``).
+COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed")
+MAX_SIZE = 2 ** 16  # no context's textures are wider: the bound of a check made before one
+
+
+def check_settings(settings, scene, rendering=None):
+    """Check ``settings`` for ``scene`` without a context (what does not depend on one): every
+    setting given is one the scene's frame uses, and each is of its kind and in its range (the
+    size, particle count and point size against the context's own limits come when the frame is
+    planned). Raises :class:`ParameterError` naming the setting."""
+    if not isinstance(settings, FrameSettings):
+        raise ParameterError(f"settings must be a FrameSettings, got {type(settings).__name__}")
+    rendering = scene.rendering() if rendering is None else rendering
+    used = set(COMMON_SETTINGS) | set(rendering.settings)
+    unused = [name for name in settings.given() if name not in used]
+    if unused:
+        raise ParameterError(f"{', '.join(OPTIONS.get(n, n) for n in unused)}: scene "
+                             f"{scene.name!r} does not use "
+                             f"{'this setting' if len(unused) == 1 else 'these settings'} "
+                             f"({rendering.kind})")
+    given = {name: getattr(settings, name) for name in settings.given()}
+    checks = {"size": lambda v: parse_size(v, MAX_SIZE),
+              "particles": lambda v: check_range("particles", v, 1, None, integer=True),
+              "steps": lambda v: check_range("steps", v, 0, MAX_STEPS, integer=True),
+              "seed": lambda v: check_range("seed", v, 0, 2 ** 63 - 1, integer=True),
+              "format": lambda v: v == "auto" or v in FORMATS or resolve_format(None, v),
+              "rounding": check_rounding,
+              "point_size": lambda v: check_range("point_size", v, 0.0, None)}
+    for name, value in given.items():
+        if name in checks:
+            checks[name](value)
+    rendering.check_settings({n: v for n, v in given.items() if n in rendering.settings})
+    check_range("share", settings.share, 0, 2 ** 40, integer=True)
+
+
 def plan_frame(scene, settings=FrameSettings(), caps=None):
     """The :class:`FramePlan` of ``scene`` with ``settings`` on a context of ``caps`` (stated
     ones, :meth:`Capabilities.assumed`, where None): pure Python, no GL. Every setting left as
     DEFAULT takes the scene's default, resolved here once; a setting given that the frame does not
-    use is an error naming it."""
+    use is an error naming it (:func:`check_settings`)."""
     if caps is None:
         caps = Capabilities.assumed()
-    if not isinstance(settings, FrameSettings):
-        raise ParameterError(f"settings must be a FrameSettings, got {type(settings).__name__}")
+    rendering = scene.rendering()
+    check_settings(settings, scene, rendering)
     defaults = scene.defaults
-    b = PlanBuilder(scene.name, settings, caps)
+    b = PlanBuilder(scene.name, settings, caps, rendering.settings)
     size = parse_size(b.setting("size", (1024, 1024)), caps.max_texture_size)
     steps = int(check_range("steps", b.setting("steps", defaults.steps), 0, MAX_STEPS,
                             integer=True))
     seed = b.setting("seed", 0)
-    check_range("seed", seed, 0, 2 ** 63 - 1, integer=True)
-    check_range("share", settings.share, 0, 2 ** 40, integer=True)
-    rendering = scene.rendering()
     graph = scene_graph(scene, caps)
     rendering.check_reads(scene, graph)
     b.size = size
@@ -606,13 +641,6 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     culled = _cull(b.stages, present)
     b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
                    for s in b.stages if s.name in culled]
-    unused = [name for name in settings.given() if name not in b.used]
-    if unused:
-        what = rendering.kind
-        raise ParameterError(f"{', '.join(OPTIONS.get(n, n) for n in unused)}: scene "
-                             f"{scene.name!r} does not use "
-                             f"{'this setting' if len(unused) == 1 else 'these settings'} "
-                             f"({what})")
     b.stages = [s for s in b.stages if s.name not in culled]
     b.notes = list(graph.notes) + list(scene.describe()) + b.notes
     return b.finish(present=present, steps=steps, size=size, rendering=rendering,
@@ -652,6 +680,7 @@ class Rendering:
     camera (3D)."""
 
     reads = ("position",)
+    settings = ()  # the frame settings it uses beside COMMON_SETTINGS
     has_camera = False
     kind = "a rendering"
 
@@ -663,6 +692,10 @@ class Rendering:
                        else "does not declare")
                 raise GraphError(f"the renderer reads {name!r}, which scene {scene.name!r} {how} "
                                  f"(its quantities: {', '.join(graph.quantities) or 'none'})")
+
+    def check_settings(self, given):
+        """Check the settings given (name -> value) of those it uses (``settings``), with no
+        context: each of its kind and in its range. Raises :class:`ParameterError`."""
 
     def plan(self, b, defaults):
         raise NotImplementedError

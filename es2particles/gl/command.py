@@ -173,7 +173,7 @@ class DrawCommand:
         bound = {self.units[name]: textures[name] for name in self.samplers}
         self.values.current()
         self.ctx.device.draw(self.vertex_array, framebuffer, bound, self.state, self.primitive,
-                             first, count)
+                             first, count, self.stage)
 
 
 def _checked(compile, source, interface, stage):

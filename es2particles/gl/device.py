@@ -180,9 +180,11 @@ class GLDevice:
     def write(self, obj, data):
         obj.write(data)
 
-    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None):
+    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None,
+             label=None):
         """Bind ``textures`` (unit -> texture) and draw ``count`` vertices from ``first`` of
-        ``vertex_array`` as ``primitive`` into ``framebuffer`` under ``state``."""
+        ``vertex_array`` as ``primitive`` into ``framebuffer`` under ``state`` (``label``: the
+        stage's name, for a device that records)."""
         import moderngl
 
         for unit, texture in textures.items():
@@ -421,30 +423,110 @@ class RecordingDevice:
         obj.data = bytes(data)
         self._record("write", handle=obj, nbytes=len(data))
 
-    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None):
+    def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None,
+             label=None):
         program = vertex_array.details["program"]
-        self._record("draw", program=program, framebuffer=framebuffer, textures=dict(textures),
-                     uniforms=dict(program.details["values"]), state=state, primitive=primitive,
-                     first=first, count=count)
+        self._record("draw", stage=label, program=program, framebuffer=framebuffer,
+                     textures=dict(textures), uniforms=dict(program.details["values"]),
+                     state=state, primitive=primitive, first=first, count=count)
 
 
 _DECLARATION = re.compile(r"\buniform\s+(?:(?:lowp|mediump|highp)\s+)?(\w+)\s+([^;]+);")
 _COMMENTS = re.compile(r"//[^\n]*|/\*.*?\*/", re.S)
+_DIRECTIVE = re.compile(r"^\s*#\s*(\w+)\s*(.*?)\s*$")
+_FUNCTION = re.compile(r"\b\w+\s+(\w+)\s*\([^;{)]*\)\s*\{")
+_IDENTIFIER = re.compile(r"[A-Za-z_]\w*")
 
 
 def _active_uniforms(*sources):
-    """What a linker keeps, as the recording device models it: every uniform declared in the
-    sources that their code refers to outside its declaration (a driver may drop more: one whose
-    result is never written)."""
-    declared, code = {}, []
+    """What a linker keeps, as the recording device models it: each source run through the
+    preprocessor (``#define``, ``#undef``, ``#ifdef``, ``#ifndef``, ``#if``/``#elif`` of
+    ``defined``, numbers and logic, ``#else``, ``#endif``; object-like macros substituted), then
+    every uniform declared there that a function reachable from ``main`` refers to. (A driver may
+    drop more: one whose result is never written.)"""
+    declared, used = {}, set()
     for text in sources:
-        clean = _COMMENTS.sub("", text)
-        for glsl_type, names in _DECLARATION.findall(clean):
+        code = _preprocess(_COMMENTS.sub("", text))
+        for glsl_type, names in _DECLARATION.findall(code):
             for name in names.split(","):
                 name = name.strip()
                 length = int(re.search(r"\[(\d+)\]", name).group(1)) if "[" in name else 1
                 declared[name.split("[")[0].strip()] = ActiveUniform(glsl_type == "sampler2D",
                                                                       length)
-        code.append(re.sub(r"\b(?:uniform|varying|attribute)\b[^;]*;", "", clean))
-    used = set(re.findall(r"[A-Za-z_]\w*", "\n".join(code)))
+        used |= _reachable_identifiers(code)
     return {name: u for name, u in declared.items() if name in used}
+
+
+def _preprocess(text):
+    """The lines of ``text`` the GLSL preprocessor keeps, object-like macros substituted."""
+    macros, out, stack = {}, [], []  # stack of (this branch taken, any branch taken yet)
+    for line in text.split("\n"):
+        match = _DIRECTIVE.match(line)
+        active = all(taken for taken, _ in stack)
+        if match:
+            word, rest = match.groups()
+            if word in ("ifdef", "ifndef"):
+                taken = (rest.split()[0] in macros) == (word == "ifdef")
+                stack.append((taken, taken))
+            elif word == "if":
+                taken = _condition(rest, macros)
+                stack.append((taken, taken))
+            elif word == "elif":
+                _, done = stack.pop()
+                taken = not done and _condition(rest, macros)
+                stack.append((taken, done or taken))
+            elif word == "else":
+                _, done = stack.pop()
+                stack.append((not done, True))
+            elif word == "endif":
+                stack.pop()
+            elif active and word == "define":
+                name, _, value = rest.partition(" ")
+                macros[name] = value.strip()
+            elif active and word == "undef":
+                macros.pop(rest.strip(), None)
+            continue
+        if active:
+            out.append(_IDENTIFIER.sub(lambda m: _renamed(m.group(0), macros), line))
+    return "\n".join(out)
+
+
+def _renamed(word, macros):
+    """``word`` after an object-like macro that names another identifier (``#define main
+    state_pass_main``); any other word as it is."""
+    value = macros.get(word, "")
+    return value if _IDENTIFIER.fullmatch(value) else word
+
+
+def _condition(expression, macros):
+    """An ``#if`` expression of ``defined``, numbers, macros and ``! && ||``, as a bool."""
+    text = re.sub(r"defined\s*\(\s*(\w+)\s*\)|defined\s+(\w+)",
+                  lambda m: " 1 " if (m.group(1) or m.group(2)) in macros else " 0 ", expression)
+    text = text.replace("&&", " and ").replace("||", " or ")
+    text = re.sub(r"!(?!=)", " not ", text)
+    text = _IDENTIFIER.sub(lambda m: m.group(0) if m.group(0) in ("and", "or", "not") else
+                           (macros.get(m.group(0)) or "0"), text)
+    return bool(eval(text, {"__builtins__": {}}, {}))  # digits, operators and 'and or not'
+
+
+def _reachable_identifiers(code):
+    """Identifiers in the bodies of the functions ``main`` reaches (by name: an overload
+    counts as called where any of its name is)."""
+    bodies = {}
+    for match in _FUNCTION.finditer(code):
+        depth, i = 1, match.end()
+        while depth and i < len(code):
+            depth += {"{": 1, "}": -1}.get(code[i], 0)
+            i += 1
+        bodies.setdefault(match.group(1), []).append(code[match.end():i])
+    reached, todo, words = set(), ["main"], set()
+    while todo:
+        name = todo.pop()
+        if name in reached or name not in bodies:
+            continue
+        reached.add(name)
+        for body in bodies[name]:
+            found = set(_IDENTIFIER.findall(body))
+            words |= found
+            todo += [w for w in found if w in bodies]
+    return words

@@ -10,7 +10,7 @@ constant into the density target with additive blending, so the target holds den
 from dataclasses import dataclass
 
 from ..errors import CapabilityError, ParameterError, check_range
-from ..frame.plan import MAX_ACCUMULATE, Ref, Rendering, Resource, Stage
+from ..frame.plan import Ref, Rendering, Resource, Stage
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 
@@ -27,6 +27,10 @@ ACCUMULATION_FORMATS = ("r32f", "rgba32f", "rgba16f", "rgba8")
 # the cache, smaller ones pay more thread wake-ups). The picture is bit-identical. On a GPU the
 # draw is one call.
 SOFTWARE_DRAW_SLICE = 2 ** 14
+MAX_ACCUMULATE = 10 ** 6
+# Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
+# with exit 0 (--intensity 1e39 did that).
+MAX_INTENSITY = 1e6
 
 
 def point_uniforms(view, point_size, size):
@@ -36,6 +40,10 @@ def point_uniforms(view, point_size, size):
     x0, y0, x1, y1 = (float(v) for v in view)
     return {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": float(point_size),
             "u_target_size": (float(size[0]), float(size[1]))}
+
+
+def _not_bloom(value):
+    raise ParameterError(f"bloom must be a Bloom or None, got {type(value).__name__}")
 
 
 def choose_accumulation(caps):
@@ -67,6 +75,7 @@ class Density(Rendering):
     background: object = None
     draw_slice: int = None
 
+    settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate")
     has_camera = False
     kind = "it draws 2D density points"
 
@@ -82,6 +91,22 @@ class Density(Rendering):
         if self.draw_slice is not None:
             check_range("draw_slice", self.draw_slice, 1, integer=True)
 
+    def check_settings(self, given):
+        """The density's and the post chain's settings, each of its kind and in its range (the
+        point size against the context's range comes when the frame is planned)."""
+        from .post import Bloom
+        from .ramps import load_ramp
+
+        checks = {"intensity": lambda v: check_range("intensity", v, 0, MAX_INTENSITY),
+                  "exposure": lambda v: check_range("exposure", v, 1e-3, 1e3),
+                  "accumulate": lambda v: check_range("accumulate", v, 1, MAX_ACCUMULATE,
+                                                      integer=True),
+                  "gradient": lambda v: v is None or load_ramp(v),
+                  "bloom": lambda v: v is None or isinstance(v, Bloom) or _not_bloom(v)}
+        for name, value in given.items():
+            if name in checks:
+                checks[name](value)
+
     def plan(self, b, defaults):
         """Add the points stage (accumulated over the run's samples) and the post chain to plan
         builder ``b``; the last post stage's picture is what the frame presents."""
@@ -94,9 +119,7 @@ class Density(Rendering):
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
                                  lo, hi)
-        # Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour
-        # image with exit 0 (--intensity 1e39 did that).
-        intensity = check_range("intensity", b.setting("intensity", 1.0), 0, 1e6)
+        intensity = check_range("intensity", b.setting("intensity", 1.0), 0, MAX_INTENSITY)
         b.accumulate = int(check_range("accumulate", b.setting("accumulate", 1), 1,
                                        MAX_ACCUMULATE, integer=True))
         fmt, note = choose_accumulation(caps)

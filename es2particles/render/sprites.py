@@ -130,6 +130,7 @@ class Sprites(Rendering):
     meshes: tuple = ()
 
     reads = ("position", "life")
+    settings = ("point_size",)
     has_camera = True
     kind = "it draws 3D sprites: no tone map, gradient map, bloom or accumulation"
 

@@ -50,6 +50,13 @@ def timed(function, repeats, finish=lambda: None):
     return timings(function, finish, repeats)
 
 
+def stages(p, *kinds, camera=None):
+    """A function that runs the pipeline's frame stages of ``kinds`` (plan.py: Stage.kind) once,
+    in the plan's order, for ``camera``: one part of a frame, timed alone."""
+    chosen = [s for s in p.plan.frame_stages if s.kind in kinds]
+    return lambda: [p.executor.run(s, p.executor.frame(camera)) for s in chosen]
+
+
 def collision_steady(pipeline, rng):
     """Every particle alive, spread over the scene with emission-like speeds and ages: the steady
     fountain's cost without the minutes of warm-up it takes at 2^22 on a CPU rasteriser."""
@@ -74,14 +81,13 @@ def ours(ctx, scene_name, count, repeats):
             p.step(20)
         else:
             collision_steady(p, np.random.default_rng(0))
-        finish = ctx.mgl.finish
+        finish = ctx.finish
         rows = {"step": timed(lambda: p.step(1), repeats, finish),
-                "render": timed(lambda: p.renderer.draw(p.sim.buffers), repeats, finish)}
-        density = p.renderer.density
-        rows["post"] = timed(lambda: p.post.apply(density), repeats, finish)
-        final = p.post.apply(density)
-        rows["readback"] = timed(lambda: p.post.read(final), repeats)
-        image = p.post.read(final)
+                "render": timed(stages(p, "points"), repeats, finish)}
+        rows["post"] = timed(stages(p, "post"), repeats, finish)
+        p.render()
+        rows["readback"] = timed(p.image, repeats)
+        image = p.image()
         # Ours: the encoder es2particles.io.output.save_image uses (unfiltered rows, level 1).
         rows["PNG encode"] = timed(lambda: encode_png(image), repeats)
         rows["frame"] = timed(lambda: (p.step(1), p.render(), encode_png(p.image())), repeats)
@@ -230,20 +236,24 @@ def dask_section(emit, quick):
             start = time.perf_counter()
             client.submit(int, 0, pure=False).result()
             empty.append(time.perf_counter() - start)
-        argv = ["run", "dejong", "--reseed", "--particles", "1024", "--size", "64x64",
-                "--frames", "2", "--out", "x.gif"]
-        client.submit(cluster.frames_task, argv, [1], pure=False).result()  # the context, made
+        from es2particles.frame.plan import FrameSettings
+        from es2particles.run import Run
+
+        run = Run("dejong", {"a": 1.4, "b": -2.3, "c": 2.4, "d": -2.1, "iterations": 3,
+                             "reseed": True, "animate_to": None},
+                  FrameSettings(particles=1024, size=(64, 64)), frames=2)
+        client.submit(cluster.frames_task, run, [1], pure=False).result()  # the context, made
         tiny = []
         for _ in range(20):
             start = time.perf_counter()
-            client.submit(cluster.frames_task, argv, [1], pure=False).result()
+            client.submit(cluster.frames_task, run, [1], pure=False).result()
             tiny.append(time.perf_counter() - start)
         start = time.perf_counter()
         client.submit(np.zeros, (1024, 1024), np.float64, pure=False).result()  # 8 MiB back
         density = time.perf_counter() - start
     emit(f"Task overhead (LocalCluster, 1 worker): an empty task "
          f"{statistics.median(empty) * 1e3:.1f} ms "
-         f"round trip; our smallest frame task (64x64, 1024 particles: parse, pipeline, draw, PNG) "
+         f"round trip; our smallest frame task (64x64, 1024 particles: pipeline, draw, PNG) "
          f"{statistics.median(tiny) * 1e3:.0f} ms; a task returning a 1024^2 float64 sum (8 MiB) "
          f"{density * 1e3:.0f} ms")
     emit()
@@ -286,8 +296,9 @@ def fountain_section(ctx, sizes, repeats, emit):
     sprite render (meshes, then sprites with depth) at sprite sizes of 1 to 32 pixels in both
     blend modes. Sprites draw at a fixed size here (no attenuation) so the size is what is
     timed."""
+    from es2particles.frame.pipeline import Renderer
+    from es2particles.render.sprites import Sprites
     from es2particles.scenes import Fountain
-    from es2particles.render.sprites import SpriteRenderer
     from es2particles.twins.fountain import fountain_step
 
     scene = Fountain()
@@ -298,22 +309,18 @@ def fountain_section(ctx, sizes, repeats, emit):
         count = 2 ** log2n
         with Pipeline(ctx, scene, count, SIZE) as p:
             p.warm_up()
-            finish = ctx.mgl.finish
+            finish = ctx.finish
             step = timed(lambda: p.step(1), repeats, finish)
             x, v = p.sim.download("position"), p.sim.download("velocity")
             peer = timed(lambda: fountain_step(x, v, scene.physics), repeats)
             emit(f"| 2^{log2n} | step | {fmt_ms(step)} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f})"
                  f" | {fmt_ms(peer)} | {peer[0] / step[0]:.2f} |")
-            reads = {q: p.sim.plan.quantities[q] for q in scene.render_reads}
             for pixels in (1, 4, 16, 32):
                 for blend in ("add", "over"):
-                    renderer = SpriteRenderer(ctx, reads, p.sim.layout, SIZE, p.sim.fmt,
-                                              scene.meshes(), point_size=pixels, blend=blend,
-                                              size_spread=0.0, attenuation=(1.0, 0.0, 0.0))
-                    try:
-                        t = timed(lambda: renderer.draw(p.sim.buffers, camera), repeats, finish)
-                    finally:
-                        renderer.release()
+                    sprites = Sprites(meshes=scene.meshes(), blend=blend, size_spread=0.0,
+                                      attenuation=(1.0, 0.0, 0.0))
+                    with Renderer(ctx, sprites, p.sim, size=SIZE, point_size=pixels) as r:
+                        t = timed(lambda: r.draw(camera), repeats, finish)
                     emit(f"| 2^{log2n} | render, {pixels} px sprites, {blend} | {fmt_ms(t)} "
                          f"({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | - | - |")
 
@@ -328,7 +335,9 @@ def smoke_section(ctx, sizes, repeats, emit):
 
     emit("| N | stage | ours ms (min-max) | CPU route ms | CPU/ours |")
     emit("|---|---|---|---|---|")
-    finish = ctx.mgl.finish
+    from es2particles.render.sort import Order
+
+    finish = ctx.finish
     for log2n in sizes:
         count = 2 ** log2n
         scene = Smoke()
@@ -339,9 +348,7 @@ def smoke_section(ctx, sizes, repeats, emit):
                 f"| 2^{log2n} | {stage} | {fmt_ms(t)} ({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | "
                 f"{fmt_ms(peer)} | {'-' if peer is None else f'{peer[0] / t[0]:.2f}'} |")
             row("step", timed(lambda: p.step(1), repeats, finish))
-            renderer, buffers = p.renderer, p.sim.buffers
-            sorter = renderer.sorter
-            network = sorter.network
+            network = Order(count, p.plan.resources["order"].format)
             order_texture = ctx.texture((network.width, network.height), network.fmt)
 
             def cpu_sort():  # the order a CPU would make: read back, sort, upload
@@ -349,18 +356,17 @@ def smoke_section(ctx, sizes, repeats, emit):
                 order = np.argsort(-depth, kind="stable")
                 slots = np.arange(network.slots)
                 slots[:count] = order
-                order_texture.write(network.encode(np.zeros(network.slots, np.int64),
-                                                   slots).tobytes())
+                ctx.write(order_texture, network.encode(np.zeros(network.slots, np.int64),
+                                                        slots).tobytes())
 
             try:
                 peer = timed(cpu_sort, repeats, finish)
             finally:
                 ctx.free(order_texture)
-            row(f"sort: key + {sorter.network.passes} merge passes", timed(
-                lambda: sorter.update(buffers, camera), repeats, finish), peer)
-            row("shadow map pass", timed(
-                lambda: renderer.shadow.draw(buffers, renderer.world_size(camera)), repeats,
-                finish))
+            row(f"sort: key + {network.passes} merge passes", timed(
+                stages(p, "sort key", "sort merge", camera=camera), repeats, finish), peer)
+            row("shadow map pass", timed(stages(p, "shadow map", camera=camera), repeats,
+                                         finish))
             row("frame: step, sort, shadow, render", timed(
                 lambda: (p.step(1), p.render()), repeats, finish))
         for label, options in (("frame, sort spread 8 passes", {"sort": 8}),
@@ -375,8 +381,8 @@ def smoke_section(ctx, sizes, repeats, emit):
 def smoke_sortedness(ctx, log2n, emit, frames=45):
     """How sorted the drawn order stays when the merge passes are spread over frames (Latta
     2004): the smoke moving under its orbiting camera, after ``frames`` frames of one step."""
+    from es2particles.render.sort import Order, sortedness
     from es2particles.scenes.smoke import Smoke
-    from es2particles.render.sort import sortedness
 
     emit()
     emit(f"Order of the smoke at 2^{log2n} after {frames} frames of one step, the camera orbiting "
@@ -394,9 +400,14 @@ def smoke_sortedness(ctx, log2n, emit, frames=45):
                 p.render(frame, 4 * frames)
             camera = scene.camera_at(frames - 1, 4 * frames)
             depth = (p.sim.download("position") - camera.eye) @ camera.forward
-            sorter = p.renderer.sorter
-            order = sorter.order() if sorter is not None else np.arange(2 ** log2n)
-            passes = "-" if sorter is None else (sorter.network.passes if sort == "full" else sort)
+            sorted_ = "order" in p.plan.resources
+            order = np.arange(2 ** log2n)
+            if sorted_:
+                network = Order(2 ** log2n, p.plan.resources["order"].format)
+                texels = np.frombuffer(p.executor.read("order"),
+                                       np.uint8 if network.fmt == "rgba8" else np.float32)
+                order = network.decode(texels.reshape(-1, 4))[1][: 2 ** log2n]
+            passes = "-" if not sorted_ else (network.passes if sort == "full" else sort)
             m = sortedness(order, depth)
             emit(f"| {sort} | {passes} | {100 * m.adjacent:.2f}% | {100 * m.discordant:.3f}% | "
                  f"{100 * m.displacement:.3f}% | {100 * m.depth_error:.3f}% |")
@@ -487,12 +498,12 @@ def accumulation_section(ctx, emit, quick):
     for k in (1, 4, 16) if quick else (1, 4, 16, 64):
         with Pipeline(ctx, scene, count, SIZE, accumulate=k) as p:
             p.warm_up()
-            ctx.mgl.finish()
+            ctx.finish()
             start = time.perf_counter()  # the density only, as the peers': Pipeline.density
             p.density()
-            ctx.mgl.finish()
+            ctx.finish()
             ours_t = time.perf_counter() - start
-            ours_d = np.frombuffer(p.renderer.density.read(), np.float32).reshape(h, w)
+            ours_d = np.frombuffer(p.executor.read("density"), np.float32).reshape(h, w)
         job = NumpyDeJong(count)
         for _ in range(20):
             job.step()

@@ -26,6 +26,7 @@ def mark(stage):
 def main(argv):
     import es2particles.cli as cli
     from es2particles.gl import context as context_module
+    from es2particles.gl.egl import open_context
     from es2particles.io.output import save_image
     mark("imports")
 
@@ -43,24 +44,25 @@ def main(argv):
             compiled[0] += time.perf_counter() - start
     context_module.compile_program = timed_compile
 
-    with context_module.open_context() as ctx:
+    run = cli.run_of(args)
+    scene = run.check()
+    with open_context() as ctx:
         mark("context")
         ctx.caps
         mark("probe")
-        scene, pipeline = cli._pipeline(ctx, args)
+        scene, pipeline = run.pipeline(ctx, scene)
         with pipeline:
             mark("set-up")
             marks["set-up"] -= compiled[0]
             marks["compiles"] = compiled[0]
-            scene.before_frame(pipeline.sim, 0, 1)
-            cli._warm_up(pipeline)
-            ctx.mgl.finish()
+            pipeline.begin(1, cli._warm_up)
+            ctx.finish()
             mark("steps")
-            final = pipeline.render()
-            ctx.mgl.finish()
+            pipeline.render()
+            ctx.finish()
             mark("first frame")
             marks["compiles"] = compiled[0]  # a post program may link at its first use
-            image = (pipeline.post or pipeline.renderer).read(final)
+            image = pipeline.image()
             mark("readback")
             save_image(image, args.out)
             mark("PNG")

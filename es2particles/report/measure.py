@@ -50,7 +50,7 @@ def dejong_row(ctx, fmt, count, rounding, k_steps=20, image=(512, 512)):
     """One de Jong configuration: step and frame time, one-step and density errors."""
     scene = DeJong()
     with Pipeline(ctx, scene, count, image, fmt=fmt, bloom=Bloom(), rounding=rounding) as p:
-        finish = ctx.mgl.finish
+        finish = ctx.finish
         step = median_time(lambda: p.step(1), finish)
         frame = median_time(lambda: (p.step(1), p.render()), finish)
         sim = p.sim
@@ -110,7 +110,7 @@ def collision_dt_row(ctx, fmt, rounding, k, horizon, count=256, drag=0.5):
         x0, v0 = sim.download("position"), sim.download("velocity")  # the decoded start
         start = time.perf_counter()
         sim.run(steps)
-        ctx.mgl.finish()
+        ctx.finish()
         elapsed = time.perf_counter() - start
         x = sim.download("position")
     exact = projectile(x0, v0, steps * dt, physics.gravity, drag)
@@ -136,8 +136,8 @@ def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
             sim.upload(name, values)
         x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
         energy0 = 0.5 * np.sum(v * v, 1) - physics.gravity[1] * x[:, 1]
-        step = median_time(sim.step, ctx.mgl.finish)
-        frame = median_time(lambda: (sim.step(), p.render()), ctx.mgl.finish)
+        step = median_time(sim.step, ctx.finish)
+        frame = median_time(lambda: (sim.step(), p.render()), ctx.finish)
         for name, values in (("position", x), ("velocity", v), ("life", life)):
             sim.upload(name, values)
         deepest = 0.0

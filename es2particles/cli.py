@@ -325,9 +325,10 @@ def _export(args):
     run = run_of(args)
     plan = page_plan(run.check(), run.settings)
     write_page(plan, out)
+    passes = sum(1 for s in plan["stages"] if s["step"])
     print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "
-          f"{plan['layout']['count']} particles, {len(plan['stages'])} stages a frame; open it "
-          "in a browser)")
+          f"{plan['layout']['count']} particles, {passes} pass draws a step, "
+          f"{len(plan['stages']) - passes} stages a frame; open it in a browser)")
 
 
 def _run(args):

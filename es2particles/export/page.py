@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import CapabilityError, ParameterError
 from ..frame.plan import DEFAULT, frame_value, plan_frame
 from ..frame.state import encode_values, fill_texels, part_textures, zero_texels
 from ..gl.context import Capabilities
@@ -147,6 +147,11 @@ def page_plan(scene, settings=None, **given):
 
     settings = page_settings(settings, **given)
     plan = plan_frame(scene, settings, PAGE_CAPS)
+    for name, r in plan.resources.items():
+        if r.kind == "state" and r.format != "rgba8":
+            raise CapabilityError(f"quantity {name!r} is pinned to {r.format}; the page keeps "
+                                  "every quantity in rgba8, the one format every ES 2.0 context "
+                                  "renders to")
     layout = plan.layout
     programs = _Programs()
 

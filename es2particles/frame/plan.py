@@ -413,19 +413,24 @@ class FramePlan:
     def _describe_stage(self, s):
         reads = [("texture " if self.resources[r].kind == "image" else "") + r
                  for r in s.reads]
-        draws = f"x{len(s.repeat)} draws" if s.repeat else ""
-        if s.repeat and s.per_frame is not None:
-            frames = -(-len(s.repeat) // s.per_frame)
-            draws = (f"{s.per_frame} of {len(s.repeat)} draws a frame (all of them every "
-                     f"{frames} frames)")
+        draws = ""
+        if s.repeat:
+            draws = f"{len(s.repeat)} draws a frame, one per pass"
+            if s.per_frame is not None:
+                frames = -(-len(s.repeat) // s.per_frame)
+                draws = (f"{s.per_frame} of {len(s.repeat)} draws a frame (all of them every "
+                         f"{frames} frames)")
         if s.vertices is not None:
             v = self.vertices[s.vertices]
             count = s.count if s.count is not None else v.count
             unit = {"points": "points", "triangles": "vertices"}[s.primitive]
             draws = f"{count} {unit} ({v.name})"
-        clear = " (clears it first)" if s.clear is not None else ""
-        text = (f"{s.name}: {' + '.join(s.files)} -> {s.target.resource}{clear}; reads "
-                f"{', '.join(reads) or 'nothing'}; {s.state.describe()}")
+        target = self.resources[s.target.resource]
+        w, h = target.size
+        clear = ", cleared first" if s.clear is not None else ""
+        text = (f"{s.name}: {' + '.join(s.files)} -> {target.name} ({target.format} {w}x{h}, "
+                f"{format_bytes(target.nbytes)}{clear}); reads {', '.join(reads) or 'nothing'}; "
+                f"{s.state.describe()}")
         if draws:
             text += f"; {draws}"
         if s.what:

@@ -236,7 +236,7 @@ def dask_section(emit, quick):
             start = time.perf_counter()
             client.submit(int, 0, pure=False).result()
             empty.append(time.perf_counter() - start)
-        from es2particles.frame.plan import FrameSettings
+        from es2particles.frame.settings import FrameSettings
         from es2particles.run import Run
 
         run = Run("dejong", {"a": 1.4, "b": -2.3, "c": 2.4, "d": -2.1, "iterations": 3,

@@ -272,7 +272,7 @@ def run_of(args):
     """The :class:`~es2particles.run.Run` of the parsed arguments: the scene's own options,
     and only the frame settings the user typed (the others are the scene's or the framework's
     defaults, resolved once when the frame is planned)."""
-    from .frame.plan import FrameSettings
+    from .frame.settings import FrameSettings
     from .run import Run
     from .render.post import Bloom
 
@@ -337,7 +337,7 @@ def _run(args):
 
     from .cluster import shares
     from .errors import ParameterError
-    from .frame.plan import MAX_SIZE, parse_size
+    from .frame.settings import MAX_SIZE, parse_size
     from .gl.egl import open_context
     from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
                             check_video, save_image, save_state)

@@ -13,7 +13,7 @@ from argparse import Namespace
 from dataclasses import dataclass, field, replace
 
 from .errors import ParameterError, check_range
-from .frame.plan import FrameSettings
+from .frame.settings import FrameSettings
 
 MAX_FRAMES = 100000
 MAX_STEPS_PER_FRAME = 10 ** 6
@@ -55,7 +55,7 @@ class Run:
         """The scene of this run, made (its options checked), with the run's settings checked
         against it: everything that needs no GL context, so bad input fails before one is
         opened."""
-        from .frame.plan import check_settings
+        from .frame.settings import check_settings
 
         scene = self.make_scene()
         check_settings(self.settings, scene)

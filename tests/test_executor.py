@@ -14,7 +14,8 @@ from conftest import shader, wide_graph
 from es2particles import GraphError, ParameterError, PassGraph, Simulation
 from es2particles.frame.executor import Executor
 from es2particles.frame.pipeline import Pipeline
-from es2particles.frame.plan import FrameSettings, Ref, Rendering, Resource, Stage, plan_frame
+from es2particles.frame.plan import Ref, Rendering, Resource, Stage, plan_frame
+from es2particles.frame.settings import FrameSettings
 from es2particles.gl.command import DrawCommand
 from es2particles.render.camera import Camera
 from es2particles.scenes import Clifford, Collision3D, DeJong, Fountain, Smoke

@@ -73,7 +73,8 @@ def programs():
     and rounding: simulation passes, points, sprites, meshes, sort key and merge, shadow map and
     post stages alike."""
     from es2particles.fields.field2d import CollisionField
-    from es2particles.frame.plan import FrameSettings, plan_frame, plan_graph
+    from es2particles.frame.plan import plan_frame, plan_graph
+    from es2particles.frame.settings import FrameSettings
     from es2particles.frame.state import FORMATS
     from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
     from es2particles.scenes.collision import RECT

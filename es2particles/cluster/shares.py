@@ -28,7 +28,7 @@ def share_sizes(run, save_state=False):
     is one plain pipeline: an animation, a scene that is not drawn as counts, or no more than
     ``SHARE`` particles (or the scene's default). ``save_state``: a state file is asked for too
     (one pipeline's, refused for a shared still)."""
-    from ..frame.plan import DEFAULT
+    from ..frame.settings import DEFAULT
     from ..render.points import Density
 
     particles = run.settings.particles

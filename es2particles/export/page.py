@@ -36,7 +36,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CapabilityError, ParameterError
-from ..frame.plan import DEFAULT, frame_value, plan_frame
+from ..frame.plan import frame_value, plan_frame
+from ..frame.settings import DEFAULT
 from ..frame.state import encode_values, fill_texels, part_textures, zero_texels
 from ..gl.context import Capabilities
 from ..gl.shaders import expand

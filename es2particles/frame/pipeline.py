@@ -11,8 +11,8 @@ import numpy as np
 
 from ..errors import ParameterError
 from .executor import Executor
-from .plan import (DEFAULT, Defaults, FrameSettings, PlanBuilder, Resource,  # noqa: F401
-                   parse_size, plan_frame)
+from .plan import PlanBuilder, Resource, plan_frame
+from .settings import DEFAULT, Defaults, FrameSettings, parse_size
 from .simulation import Simulation
 
 

@@ -13,7 +13,8 @@ import numpy as np
 from ..errors import Es2ParticlesError, ParameterError, check_range
 from ..gl.bindings import uniform_value
 from .executor import Executor
-from .plan import check_rounding, plan_graph
+from .plan import plan_graph
+from .settings import check_rounding
 from .state import per_component
 
 

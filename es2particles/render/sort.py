@@ -39,7 +39,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import CapabilityError, ParameterError, check_range
-from ..frame.plan import FrameSettings, PlanBuilder, Ref, Resource, Stage, depth_range
+from ..frame.plan import PlanBuilder, Ref, Resource, Stage, depth_range
+from ..frame.settings import FrameSettings
 from ..frame.state import FORMATS as STATE_FORMATS, Layout
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.context import numpy_dtype

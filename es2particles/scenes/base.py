@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError
-from ..frame.plan import Defaults
+from ..frame.settings import Defaults
 
 
 def parse_numbers(option, text, counts):

@@ -68,14 +68,14 @@ def collision_steady(pipeline, rng):
         x = np.concatenate([x, x[: n - len(x)]])
     angle = rng.uniform(0, 2 * np.pi, n)
     speed = rng.uniform(0.5, 3.0, n)
-    life = rng.uniform(*scene.physics.lifetime, n)
+    life = rng.uniform(*scene.params.lifetime, n)
     sim.upload("position", x)
     sim.upload("velocity", np.stack([np.cos(angle), np.sin(angle)], 1) * speed[:, None])
     sim.upload("life", np.stack([rng.uniform(0, 1, n) * life, life], 1))
 
 
 def ours(ctx, scene_name, count, repeats):
-    scene = DeJong() if scene_name == "dejong" else Collision("circle+box+capsule")
+    scene = DeJong() if scene_name == "dejong" else Collision(shape="circle+box+capsule")
     with Pipeline(ctx, scene, count, SIZE, bloom=Bloom()) as p:
         if scene_name == "dejong":
             p.step(20)
@@ -103,7 +103,7 @@ def numpy_peer(scene_name, count, repeats):
     else:
         if count > 2 ** 18:  # the float64 twin loops over sub-steps: minutes per step beyond
             return None
-        scene = Collision("circle+box+capsule")
+        scene = Collision(shape="circle+box+capsule")
         rng = np.random.default_rng(0)
         state = {"x": rng.uniform(-0.9, 0.9, (count, 2)), "v": rng.uniform(-2, 2, (count, 2)),
                  "life": np.stack([np.zeros(count), np.full(count, 5.0)], 1)}
@@ -111,7 +111,7 @@ def numpy_peer(scene_name, count, repeats):
 
         def step():
             state["x"], state["v"], state["life"] = step_reference(
-                state["x"], state["v"], state["life"], scene.field, scene.physics)
+                state["x"], state["v"], state["life"], scene.field, scene.params)
         positions = lambda: state["x"]  # noqa: E731
         repeats = min(repeats, 3)
     frame.density(positions())
@@ -312,7 +312,7 @@ def fountain_section(ctx, sizes, repeats, emit):
             finish = ctx.finish
             step = timed(lambda: p.step(1), repeats, finish)
             x, v = p.sim.download("position"), p.sim.download("velocity")
-            peer = timed(lambda: fountain_step(x, v, scene.physics), repeats)
+            peer = timed(lambda: fountain_step(x, v, scene.params), repeats)
             emit(f"| 2^{log2n} | step | {fmt_ms(step)} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f})"
                  f" | {fmt_ms(peer)} | {peer[0] / step[0]:.2f} |")
             for pixels in (1, 4, 16, 32):

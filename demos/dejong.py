@@ -36,7 +36,7 @@ def main():
     out = Path("out")
     out.mkdir(exist_ok=True)
     with open_context() as ctx:
-        scene = DeJong(COEFFICIENTS, reseed=RESEED, animate_to=ANIMATE_TO)
+        scene = DeJong(coefficients=COEFFICIENTS, reseed=RESEED, animate_to=ANIMATE_TO)
         with Pipeline(ctx, scene, PARTICLES, SIZE, gradient=GRADIENT, bloom=Bloom()) as pipeline:
             print(pipeline.plan)
             pipeline.warm_up()

@@ -4,7 +4,7 @@ crate; the camera circles the scene.
 
 Run it with ``python demos/fountain.py`` (after ``pip install .``); it writes
 ``out/fountain.png`` (a still from the fixed camera) and ``out/fountain.webp`` (an orbit), and
-prints the plan. Change the physics, the emitter table (point, launch direction, rate) and the
+prints the plan. Change the parameters, the emitter table (point, launch direction, rate) and the
 sprite options below.
 
 The same from the command line:
@@ -17,11 +17,11 @@ from pathlib import Path
 from es2particles import open_context
 from es2particles.io.output import save_animation, save_image
 from es2particles.frame.pipeline import Pipeline
-from es2particles.scenes.fountain import Fountain, FountainPhysics
+from es2particles.scenes.fountain import Fountain, FountainParams
 
-PHYSICS = FountainPhysics(gravity=9.81, drag=0.1, lifetime=(2.0, 2.5), floor="kill",
-                          emitters=((0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 2.0),
-                                    (-2.5, 0.0, 1.0, 0.3, 1.0, 0.0, 1.0)))
+# Emitters: point, launch direction, share of births; ';' between them.
+PARAMS = FountainParams(gravity=(0.0, -9.81, 0.0), drag=0.1, lifetime=(2.0, 2.5), floor="kill",
+                        emitters="0,0,0,0,1,0,2; -2.5,0,1,0.3,1,0,1")
 PARTICLES = 2 ** 12
 SIZE = (960, 540)
 FRAMES = 60
@@ -31,12 +31,12 @@ def main():
     out = Path("out")
     out.mkdir(exist_ok=True)
     with open_context() as ctx:
-        still = Fountain(PHYSICS, camera="fixed")
+        still = Fountain(PARAMS)
         with Pipeline(ctx, still, PARTICLES, SIZE) as pipeline:
             print(pipeline.plan)
             pipeline.warm_up()
             save_image(pipeline.image(), out / "fountain.png")
-        moving = Fountain(PHYSICS, camera="orbit", blend="add")
+        moving = Fountain(PARAMS.changed(camera="orbit"))
         with Pipeline(ctx, moving, PARTICLES, SIZE) as pipeline:
             pipeline.warm_up()
             frames = []

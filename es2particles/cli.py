@@ -11,16 +11,30 @@ import sys
 from .errors import Es2ParticlesError
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose errors are one line (the package's error) with where to look."""
+
+    typed = None  # the command and scene typed, where argv has them: the help to point at
+
+    def error(self, message):
+        from .errors import ParameterError
+
+        raise ParameterError(f"{message} (see {self.typed or self.prog} --help)")
+
+
 def build_parser(argv=None):
     """The command line's parser: every installed scene has its run and plan commands. Where
     ``argv`` runs or plans a built-in scene, that scene alone is imported and given its options
     (the others' imports and the package metadata cost ~45 ms of a run's start-up)."""
-    parser = argparse.ArgumentParser(prog="es2particles",
+    parser = _Parser(prog="es2particles",
                                      description="GPU particle systems, OpenGL ES 2.0 style, headless.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     info = commands.add_parser("info", help="print the GL context's capabilities")
     info.set_defaults(handler=_info)
     _add_scene_commands(commands, argv or ())
+    if argv and len(argv) >= 2 and argv[0] in ("run", "plan", "export") \
+            and not argv[1].startswith("-"):
+        parser.typed = f"es2particles {argv[0]} {argv[1]}"
     report = commands.add_parser("report", help="error against run time, and the stability suite")
     report.add_argument("--quick", action="store_true",
                         help="a small sweep (about 35 s on a 2-core CPU without a GPU)")
@@ -32,9 +46,10 @@ def build_parser(argv=None):
 
 def main(argv=None):
     argv = _join_negative_values(sys.argv[1:] if argv is None else argv)
-    args = build_parser(argv).parse_args(argv)
     restore = _terminate_as_interrupt()
     try:
+        argv = with_config_scene(argv)
+        args = build_parser(argv).parse_args(argv)
         return args.handler(args) or 0
     except Es2ParticlesError as error:
         print(f"es2particles: error: {error}", file=sys.stderr)
@@ -115,12 +130,13 @@ def _note_sparse(pipeline):
               "sparse; raise --particles (or --point-size)", file=sys.stderr)
 
 
-def _note_static_animation(args, frames):
-    """A hint where an animation would show nothing change (one line on stderr)."""
-    if frames > 1 and getattr(args, "animate_to", "absent") is None:
+def _note_static_animation(run, frames):
+    """A hint where an attractor's animation would show nothing change (one line on stderr)."""
+    params = run.scene_class().Params.declarations()
+    if frames > 1 and "animate_to" in params and run.options.get("animate_to") is None:
         print("es2particles: note: --frames without --animate-to keeps the coefficients; the "
               "frames differ only as particles move" + (" (reseeded: not at all)"
-                                                        if getattr(args, "reseed", False) else "")
+                                                        if run.options.get("reseed") else "")
               + "; give --animate-to A,B,C,D to animate them", file=sys.stderr)
 
 
@@ -207,99 +223,164 @@ def _add_scene_commands(commands, argv):
         for name, scene in scenes_found.items():
             summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")
             sub = scenes.add_parser(name, help=summary, description=summary)
-            _add_common_arguments(sub, command)
-            common = {action.dest for action in sub._actions}
-            scene.add_arguments(sub)
-            own = [a.dest for a in sub._actions if a.dest not in common]
-            sub.set_defaults(handler=handlers[command], scene_class=scene, scene_options=own)
+            own = sub.add_argument_group(f"{name}'s parameters")
+            scene.add_arguments(own)
+            scene_options = [a.dest for a in own._group_actions]
+            _add_settings(sub.add_argument_group("frame settings (defaults: this scene's)"),
+                          scene)
+            _add_run_options(sub, command)
+            sub.set_defaults(handler=handlers[command], scene_class=scene,
+                             scene_options=scene_options)
 
 
-def _add_common_arguments(parser, command):
-    """The frame settings every scene takes. Each defaults to None, "not given": the scene's
-    default, or the framework's, is resolved once when the frame is planned, and a setting the
-    scene's frame does not use is refused there, naming the option."""
+def _add_settings(parser, scene):
+    """The frame settings ``scene`` uses, one option each (``frame/settings.py``), with this
+    scene's default in the help. Each defaults to None, "not given": the default is resolved
+    once when the frame is planned."""
+    from .frame.settings import BLOOM_PARTS, COMMON_SETTINGS, SETTINGS, Defaults
+
+    scene_defaults = set(Defaults.__dataclass_fields__)
+    used = COMMON_SETTINGS + tuple(scene.renders.settings)
+    # The settings it does not use are taken but not shown, so giving one is refused in one line
+    # that names it and says why (check_settings), not argparse's "unrecognized arguments".
+    for name in [n for n in (*SETTINGS, "bloom") if n not in used and n not in BLOOM_PARTS]:
+        if name == "bloom":
+            parser.add_argument("--no-bloom", action="store_true", default=None,
+                                help=argparse.SUPPRESS)
+            for part in BLOOM_PARTS:
+                parser.add_argument(SETTINGS[part].flag_name, dest=part, default=None,
+                                    help=argparse.SUPPRESS)
+        else:
+            parser.add_argument(SETTINGS[name].flag_name, dest=name, default=None,
+                                help=argparse.SUPPRESS)
+    for name in used:
+        if name == "bloom":
+            parser.add_argument("--no-bloom", action="store_true", default=None,
+                                help="switch bloom off")
+            for part in BLOOM_PARTS:
+                d = SETTINGS[part]
+                parser.add_argument(d.flag_name, dest=part, default=None, metavar="X",
+                                    help=d.help_text())
+            continue
+        d = SETTINGS[name]
+        default = scene.default_text(name) if name in scene_defaults else None
+        metavar = d.metavar or ("{" + ",".join(d.choices) + "}" if d.choices else "X")
+        parser.add_argument(d.flag_name, dest=name, default=None, metavar=metavar,
+                            help=d.help_text(default_text=default))
+
+
+def _add_run_options(parser, command):
     add = parser.add_argument
-    add("--particles", type=int, default=None,
-        help="particle count (default: the scene's; 2^20 for the attractors, 2^17 for collision)")
-    add("--size", default=None, help="image size WxH (default 1024x1024)")
-    add("--format", default=None, choices=["rgba8", "rgba16f", "rgba32f", "auto"],
-        help="state storage format (default rgba8: 16-bit packed; auto: the most precise one "
-             "the context can render to)")
-    add("--rounding", default=None, choices=["nearest", "dither"],
-        help="rounding of packed state (default: dither for stateful de Jong and collision, "
-             "nearest for reseeded de Jong)")
-    add("--gradient", default=None,
-        help="ramp: a name (inferno, ice, viridis, gold, grey), colours '#000,#f80,#fff', a PNG "
-             "path, or 'none' to switch the gradient map off (default inferno)")
-    add("--no-bloom", action="store_true", help="switch bloom off")
-    add("--bloom-threshold", type=float, default=None,
-        help="bloom luminance threshold [0, 1] (default 0.2)")
-    add("--bloom-radius", type=float, default=None, help="bloom blur sigma [0.5, 4] (default 3)")
-    add("--bloom-intensity", type=float, default=None,
-        help="bloom strength [0, 10] (default 0.8)")
-    add("--exposure", type=float, default=None, help="tone curve brightness (default 4)")
-    add("--point-size", type=float, default=None,
-        help="point diameter in pixels (default: the scene's; 1 for the attractors, 2 for "
-             "collision)")
-    add("--intensity", type=float, default=None,
-        help="density each particle adds, in [0, 1e6] (default 1)")
-    add("--seed", type=int, default=None, help="seed of the starting state (default 0)")
-    add("--steps", type=int, default=None,
-        help="simulation steps before the (first) frame (default: the scene's)")
-    add("--accumulate", type=int, default=None,
-        help="samples summed into each image of a density scene: this step's density and the "
-             "next K-1 steps' (reseeded attractors shift their grid for each); smoother, "
-             "1 / sqrt(K) the noise (default 1)")
-    if command == "export":
-        add("--out", required=True, help="the page: an .html file")
-    if command == "run":
-        add("--out", required=True,
-            help="output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video extra)")
-        add("--frames", type=int, default=1, help="frames of an animation (default 1: a still)")
-        add("--steps-per-frame", type=int, default=1, help="steps between frames (default 1)")
-        add("--fps", type=float, default=30.0, help="animation frame rate (default 30)")
-        add("--save-state", default=None, help="also write the decoded state to this .npz")
-        add("--workers", type=int, default=None,
-            help="run on a new local Dask cluster of this many worker processes, one GL context "
-                 "each (the distributed extra): an animation's frames, or a still's shares of "
-                 "particles, as tasks; the same bytes as one process")
-        add("--scheduler", default=None,
-            help="run on the Dask cluster of this scheduler address (tcp://host:8786), as "
-                 "--workers does")
+    out = {"export": "the page: an .html file",
+           "plan": None,
+           "run": "output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video "
+                  "extra)"}[command]
+    if out:
+        add("--out", required=True, help=out)
+    add("--config", default=None, metavar="RUN.toml",
+        help="take the run from this file (written by --save-config); options given beside it "
+             "override its values")
+    if command != "run":
+        return
+    add("--save-config", default=None, metavar="RUN.toml",
+        help="also write the run, resolved (every parameter and setting this scene uses), to "
+             "this file: --config gives the same run")
+    add("--frames", default=None, metavar="F", help="frames of an animation (default 1: a still)")
+    add("--steps-per-frame", default=None, metavar="S",
+        help="steps between the frames of an animation (default 1)")
+    add("--fps", default=None, metavar="X", help="an animation's frame rate (default 30)")
+    add("--save-state", default=None, metavar="STATE.npz",
+        help="also write the state after the last frame to this file: each quantity decoded, "
+             "and what --load-state resumes from")
+    add("--load-state", default=None, metavar="STATE.npz",
+        help="start from the state a --save-state of this scene, count and format wrote (and "
+             "its step count), then run --steps more before the first frame")
+    add("--workers", default=None, metavar="N",
+        help="run on a new local Dask cluster of this many worker processes, one GL context "
+             "each (the distributed extra): an animation's frames, or a still's shares of "
+             "particles, as tasks; the same bytes as one process")
+    add("--scheduler", default=None,
+        help="run on the Dask cluster of this scheduler address (tcp://host:8786), as "
+             "--workers does")
+
+
+def with_config_scene(argv):
+    """``argv`` with the scene of its ``--config`` file put after the command where no scene is
+    typed (``es2particles run --config run.toml --out b.png``)."""
+    if len(argv) < 2 or argv[0] not in ("run", "plan", "export") or not argv[1].startswith("-"):
+        return argv
+    for i, token in enumerate(argv):
+        path = argv[i + 1] if token == "--config" and i + 1 < len(argv) else (
+            token.split("=", 1)[1] if token.startswith("--config=") else None)
+        if path is not None:
+            from .run import read_run
+
+            return [argv[0], read_run(path).scene, *argv[1:]]
+    return argv
 
 
 def run_of(args):
-    """The :class:`~es2particles.run.Run` of the parsed arguments: the scene's own options,
-    and only the frame settings the user typed (the others are the scene's or the framework's
-    defaults, resolved once when the frame is planned)."""
-    from .frame.settings import FrameSettings
-    from .run import Run
+    """The :class:`~es2particles.run.Run` of the parsed arguments: the run file of
+    ``--config``, if any, and over it the scene's options and the frame settings the user
+    typed (the others are the file's, or the scene's or the framework's defaults, resolved once
+    when the frame is planned)."""
+    from dataclasses import replace
+
+    from .errors import ParameterError
+    from .frame.settings import BLOOM_PARTS, SETTINGS
     from .render.post import Bloom
+    from .run import Run, read_run
 
-    settings = {"particles": args.particles, "size": args.size, "format": args.format,
-                "rounding": args.rounding, "steps": args.steps, "point_size": args.point_size,
-                "intensity": args.intensity, "exposure": args.exposure,
-                "accumulate": args.accumulate, "seed": args.seed}
-    settings = {name: value for name, value in settings.items() if value is not None}
-    if args.gradient is not None:
-        settings["gradient"] = None if args.gradient == "none" else args.gradient
-    bloom = (args.bloom_threshold, args.bloom_radius, args.bloom_intensity)
-    if args.no_bloom:
-        given = [name for name, value in zip(("--bloom-threshold", "--bloom-radius",
-                                               "--bloom-intensity"), bloom) if value is not None]
+    base = Run(args.scene)
+    if args.config is not None:
+        base = read_run(args.config)
+        if base.scene != args.scene:
+            raise ParameterError(f"--config {args.config!r} is a run of {base.scene}, not "
+                                 f"{args.scene}")
+    typed = {name: getattr(args, name) for name in
+             ("particles", "size", "format", "rounding", "steps", "seed", "point_size",
+              "intensity", "exposure", "accumulate", "gradient") if hasattr(args, name)}
+    settings = {name: value if SETTINGS[name].text else SETTINGS[name].convert(
+                    value, SETTINGS[name].flag_name)
+                for name, value in typed.items() if value is not None}
+    if "gradient" in settings and settings["gradient"] == "none":
+        settings["gradient"] = None
+    parts = {part: None if getattr(args, part, None) is None else SETTINGS[part].convert(
+        getattr(args, part), SETTINGS[part].flag_name) for part in BLOOM_PARTS}
+    if getattr(args, "no_bloom", None):
+        given = ["--" + p.replace("_", "-") for p, v in parts.items() if v is not None]
         if given:
-            from .errors import ParameterError
-
             raise ParameterError(f"--no-bloom switches bloom off: leave out {', '.join(given)}")
         settings["bloom"] = None
-    elif any(value is not None for value in bloom):
-        d = Bloom()
-        settings["bloom"] = Bloom(*(d_value if value is None else value for value, d_value in
-                                    zip(bloom, (d.threshold, d.radius, d.intensity))))
-    options = {name: getattr(args, name) for name in args.scene_options}
-    frames = dict(frames=args.frames, steps_per_frame=args.steps_per_frame, fps=args.fps) \
-        if hasattr(args, "frames") else {}
-    return Run(args.scene, options, FrameSettings(**settings), **frames)
+    elif any(value is not None for value in parts.values()):
+        before = base.settings.get("bloom", Bloom()) or Bloom()
+        settings["bloom"] = Bloom(*(getattr(before, p[6:]) if v is None else v
+                                    for p, v in parts.items()))
+    options = {**base.options, **{name: getattr(args, name) for name in args.scene_options
+                                  if getattr(args, name) is not None}}
+    frames = {}
+    for name in ("frames", "steps_per_frame", "fps"):
+        value = getattr(args, name, None)
+        if value is not None:
+            frames[name] = _number(value, "--" + name.replace("_", "-"))
+    run = Run(args.scene, options, replace(base.settings, **settings),
+              **{"frames": base.frames, "steps_per_frame": base.steps_per_frame,
+                 "fps": base.fps, **frames})
+    if run.frames == 1:
+        still = [f"--{n.replace('_', '-')}" for n in ("steps_per_frame", "fps") if n in frames]
+        if still:
+            raise ParameterError(f"{', '.join(still)}: a still has one frame (give --frames "
+                                 "for an animation)")
+    return run
+
+
+def _number(text, option):
+    from .errors import ParameterError
+
+    try:
+        return float(text)
+    except ValueError:
+        raise ParameterError(f"{option} must be a number, got {text!r}") from None
 
 
 def _plan(args):
@@ -339,9 +420,11 @@ def _run(args):
     from .errors import ParameterError
     from .frame.settings import MAX_SIZE, parse_size
     from .gl.egl import open_context
+    from .io.images import check_input
     from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
-                            check_video, save_image, save_state)
+                            check_video, save_image)
     from .io.progress import progress
+    from .run import write_run
 
     gc.enable()  # console_main pauses collection while the modules come in
     start = time.perf_counter()
@@ -354,13 +437,22 @@ def _run(args):
                              "for longer animations")
     state_path = None if args.save_state is None else check_output(args.save_state, "--save-state",
                                                                    {".npz": "NPZ"})
-    _note_static_animation(args, frames)
+    config_path = None if args.save_config is None else check_output(
+        args.save_config, "--save-config", {".toml": "TOML"})
+    load_path = None if args.load_state is None else check_input(args.load_state,
+                                                                  "--load-state")
+    _note_static_animation(run, frames)
     scene = run.check()
     if frames > 1:  # before any work: the video extra, even sides
         check_video(out, parse_size(run.settings.get("size", (1024, 1024)), MAX_SIZE))
     sizes = shares.share_sizes(run, save_state=args.save_state is not None)
     if args.workers is not None or args.scheduler is not None:
+        if load_path is not None:
+            raise ParameterError("--load-state resumes one process's run: leave out --workers "
+                                 "and --scheduler to load it")
         where = _run_on_cluster(args, run, out, sizes)
+        if config_path is not None:
+            write_run(run, scene, config_path)
         print(f"wrote {out} ({args.size or 'default size'}, {frames} frame(s)"
               + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
               + f") in {time.perf_counter() - start:.2f} s {where}")
@@ -375,6 +467,8 @@ def _run(args):
         scene, pipeline = run.pipeline(ctx, scene)
         with pipeline:
             _note_sparse(pipeline)
+            if load_path is not None:
+                pipeline.load_state(load_path)
             drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
             if frames == 1:
                 next(drawn)
@@ -388,7 +482,9 @@ def _run(args):
                               file=sys.stderr)
                     writer.close()
             if state_path is not None:
-                save_state(pipeline.state(), state_path)
+                pipeline.save_state(state_path)
+            if config_path is not None:
+                write_run(run, scene, config_path)
             has_density = "density" in pipeline.plan.resources
             print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "
                   f"particles, {pipeline.sim.steps_done} steps, {frames} frame(s)) in "
@@ -406,15 +502,17 @@ def _run_on_cluster(args, run, out, sizes):
     if args.workers is not None and args.scheduler is not None:
         raise ParameterError("give --workers (a new local cluster) or --scheduler (a running "
                              "one), not both")
+    workers = None
     if args.workers is not None:
-        check_range("workers", args.workers, 1, 1024, integer=True)
+        workers = int(check_range("workers", _number(args.workers, "--workers"), 1, 1024,
+                                  integer=True))
     if args.save_state is not None:
         raise ParameterError("--save-state writes one process's state: leave out --workers and "
                              "--scheduler to save it")
     missing = tasks.available()
     if missing:
         raise CapabilityError(missing)
-    client = tasks.connect(workers=args.workers, scheduler=args.scheduler)
+    client = tasks.connect(workers=workers, scheduler=args.scheduler)
     try:
         count = tasks.workers(client)
         if run.frames == 1:

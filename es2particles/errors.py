@@ -52,7 +52,13 @@ def check_range(name, value, lo=None, hi=None, integer=False):
     if not math.isfinite(number):
         raise ParameterError(f"{name} must be finite, got {value!r}")
     if (lo is not None and number < lo) or (hi is not None and number > hi):
-        lo_text = "-inf" if lo is None else repr(lo)
-        hi_text = "inf" if hi is None else repr(hi)
-        raise ParameterError(f"{name} must be in [{lo_text}, {hi_text}], got {value!r}")
+        lo_text = "-inf" if lo is None else _number_text(lo)
+        hi_text = "inf" if hi is None else _number_text(hi)
+        raise ParameterError(f"{name} must be in [{lo_text}, {hi_text}], got "
+                             f"{_number_text(number)}")
     return number
+
+
+def _number_text(x):
+    """A number as a person writes it: 4, 0.5, 1e+06, 0.0166667."""
+    return f"{x:.6g}" if isinstance(x, float) else str(x)

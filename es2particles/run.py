@@ -72,3 +72,170 @@ class Run:
 
     def with_settings(self, **changes):
         return replace(self, settings=replace(self.settings, **changes))
+
+
+# --- runs as files --------------------------------------------------------------------------
+
+RUN_KEYS = ("scene", "frames", "steps_per_frame", "fps", "settings", "parameters")
+HEADER = "# An es2particles run: es2particles run --config {name} --out picture.png\n"
+
+
+def read_run(path):
+    """The :class:`Run` a TOML run file describes (``write_run`` writes one); any key the file
+    should not hold, or a value of the wrong kind, is one line naming the file and the key."""
+    from pathlib import Path
+
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise ParameterError(f"--config {where!r}: no such file")
+    try:
+        data = _toml_loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, ValueError) as error:  # TOMLDecodeError is a ValueError
+        raise ParameterError(f"--config {where!r} is not a TOML run file: {error}") from None
+    unknown = [k for k in data if k not in RUN_KEYS]
+    if unknown:
+        raise ParameterError(f"{where}: unknown key {unknown[0]!r} (a run file holds "
+                             f"{', '.join(RUN_KEYS)})")
+    scene = data.get("scene")
+    if not isinstance(scene, str):
+        raise ParameterError(f"{where}: 'scene' must name a scene, got {scene!r}")
+    for table in ("settings", "parameters"):
+        if not isinstance(data.get(table, {}), dict):
+            raise ParameterError(f"{where}: [{table}] must be a table of values")
+    run = Run(scene, dict(data.get("parameters", {})),
+              settings_from_mapping(data.get("settings", {}), where),
+              **{k: _number(data, k, where) for k in ("frames", "steps_per_frame", "fps")
+                 if k in data})
+    declared = run.scene_class().Params.options()
+    unknown = [k for k in run.options if k not in declared]
+    if unknown:
+        raise ParameterError(f"{where}: [parameters] {unknown[0]!r} is not a parameter of "
+                             f"{scene} (its parameters: {', '.join(declared)})")
+    options = {name: declared[name].from_file(value, f"{where}: [parameters] {name}")
+               for name, value in run.options.items()}
+    return replace(run, options=options)
+
+
+def write_run(run, scene, path):
+    """Write ``run`` of ``scene`` (made) to ``path`` as a TOML run file, resolved: every
+    parameter and every frame setting the scene uses, with the value this run takes (its own,
+    or the default), so the file alone makes the same run."""
+    from .io.output import write_atomic
+
+    from pathlib import Path
+
+    data = {"scene": run.scene, "frames": run.frames, "steps_per_frame": run.steps_per_frame,
+            "fps": run.fps, "settings": resolved_settings(run.settings, scene),
+            "parameters": {name: value for name, value in scene.params.values().items()
+                           if value is not None and name in scene.Params.options()}}
+    text = HEADER.format(name=Path(path).name) + toml_dumps(data)
+    return write_atomic(path, lambda tmp: Path(tmp).write_text(text, encoding="utf-8"))
+
+
+def resolved_settings(settings, scene):
+    """The frame settings ``scene`` uses, each its value in ``settings`` or its default, as a
+    run file writes them (the gradient 'none' where it is off, bloom a table or false)."""
+    from .frame.settings import COMMON_SETTINGS, SETTINGS
+    from .render.post import Bloom
+
+    defaults = scene.defaults
+    out = {}
+    for name in COMMON_SETTINGS + tuple(scene.rendering().settings):
+        if name == "bloom":
+            bloom = settings.get("bloom", Bloom())
+            out["bloom"] = False if bloom is None else {
+                "threshold": bloom.threshold, "radius": bloom.radius,
+                "intensity": bloom.intensity}
+            continue
+        value = settings.get(name, getattr(defaults, name, SETTINGS[name].default))
+        if name == "gradient" and value is None:
+            value = "none"
+        if name == "size" and not isinstance(value, str):
+            value = f"{value[0]}x{value[1]}"
+        out[name] = value
+    return out
+
+
+def settings_from_mapping(mapping, where):
+    """The :class:`FrameSettings` of a run file's [settings] table."""
+    from .frame.settings import BLOOM_PARTS, SETTINGS
+    from .render.post import Bloom
+
+    known = [n for n in SETTINGS if n not in BLOOM_PARTS] + ["bloom"]
+    given = {}
+    for name, value in mapping.items():
+        if name not in known:
+            raise ParameterError(f"{where}: [settings] unknown key {name!r} (settings: "
+                                 f"{', '.join(known)})")
+        if name == "bloom":
+            if value is False:
+                given["bloom"] = None
+            elif isinstance(value, dict):
+                parts = {f"bloom_{k}": v for k, v in value.items()}
+                bad = [k for k in parts if k not in BLOOM_PARTS]
+                if bad:
+                    raise ParameterError(f"{where}: [settings] bloom has no {bad[0][6:]!r} "
+                                         "(bloom = {threshold, radius, intensity} or false)")
+                given["bloom"] = Bloom(**{k[6:]: SETTINGS[k].convert(v, f"bloom {k[6:]}")
+                                          for k, v in parts.items()})
+            else:
+                raise ParameterError(f"{where}: [settings] bloom must be a table "
+                                     "{threshold, radius, intensity} or false")
+        elif name == "gradient":
+            if not isinstance(value, str):
+                raise ParameterError(f"{where}: [settings] gradient must be text, got {value!r}")
+            given["gradient"] = None if value == "none" else value
+        elif name == "size":
+            given["size"] = value if isinstance(value, str) else tuple(value)
+        else:
+            try:
+                given[name] = SETTINGS[name].convert(value, f"[settings] {name}")
+            except ParameterError as error:
+                raise ParameterError(f"{where}: {error}") from None
+    return FrameSettings(**given)
+
+
+def _number(data, key, where):
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ParameterError(f"{where}: {key!r} must be a number, got {value!r}")
+    return value
+
+
+def _toml_loads(text):
+    try:
+        import tomllib
+    except ImportError:  # Python before 3.11
+        import tomli as tomllib
+    return tomllib.loads(text)
+
+
+def toml_dumps(data):
+    """TOML text of ``data``: top-level values, then one table per nested mapping (values are
+    numbers, booleans, text, tuples of numbers and, in a table, small inline tables)."""
+    top = [f"{key} = {_toml_value(value)}" for key, value in data.items()
+           if not isinstance(value, dict)]
+    tables = [f"\n[{key}]\n" + "".join(f"{k} = {_toml_value(v)}\n" for k, v in value.items())
+              for key, value in data.items() if isinstance(value, dict)]
+    return "\n".join(top) + "\n" + "".join(tables)
+
+
+def _toml_value(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return repr(value) if value == value and abs(value) != float("inf") else _bad(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, (tuple, list)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(v)}" for k, v in value.items()) + "}"
+    return _bad(value)
+
+
+def _bad(value):
+    raise ParameterError(f"a run file cannot hold {value!r}")

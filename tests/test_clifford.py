@@ -37,7 +37,7 @@ def histogram(scene, points, bins):
 
 
 def test_view_and_range_come_from_the_coefficients():
-    scene = Clifford(ISSUE_COEFFICIENTS)
+    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)
     assert scene.range == (-2.0, -1.7, 2.0, 1.7)
     assert np.allclose(scene.view, (-2.2, -1.87, 2.2, 1.87))  # 5% margin each side
     points = clifford_map(np.random.default_rng(0).uniform(-50, 50, (10 ** 5, 2)),
@@ -46,7 +46,7 @@ def test_view_and_range_come_from_the_coefficients():
 
 
 def test_one_step_matches_float64(gl):
-    scene = Clifford(ISSUE_COEFFICIENTS)
+    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)
     start, got = run_scene(gl, scene, 2 ** 16, 1, seed=5, rounding="nearest")
     error = np.abs(got - reference(scene, start, 3)).max()
     bound = one_step_bound(scene, 3)
@@ -55,7 +55,7 @@ def test_one_step_matches_float64(gl):
 
 
 def test_stateful_density_correlates_with_float64(gl):
-    scene = Clifford(ISSUE_COEFFICIENTS)  # stateful, dithered: the scene's defaults
+    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)  # stateful, dithered: the scene's defaults
     steps = 20
     start, got = run_scene(gl, scene, 2 ** 18, steps, seed=7)
     exact = start.copy()
@@ -67,7 +67,7 @@ def test_stateful_density_correlates_with_float64(gl):
 
 
 def test_reseeded_clifford_matches_float64_per_particle(gl):
-    scene = Clifford(ISSUE_COEFFICIENTS, reseed=True)
+    scene = Clifford(coefficients=ISSUE_COEFFICIENTS, reseed=True)
     with Simulation(gl, scene.graph(), 2 ** 16) as sim:
         sim.step()
         got = sim.download("position")

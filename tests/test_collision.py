@@ -5,7 +5,7 @@ import pytest
 
 from es2particles import ParameterError, Simulation
 from es2particles.fields.field2d import Box, Circle, CollisionField
-from es2particles.scenes.collision import RECT, Collision, Physics
+from es2particles.scenes.collision import RECT, Collision, CollisionParams
 from es2particles.twins.particle import step_reference
 
 POSITION_HALF_CODE = 2 / 65024 / 2  # range [-1, 1]
@@ -41,8 +41,8 @@ def download(sim):
 
 
 def test_short_horizon_steps_agree_with_float64(gl):
-    physics = Physics(emit=False, drag=0.2)
-    scene = Collision("circle+box", physics)
+    params = CollisionParams(emit=False, drag=0.2)
+    scene = Collision(params.changed(shape="circle+box"))
     n, steps = 20000, 30
     errors_x, errors_v = [], []
     collided = 0
@@ -52,7 +52,7 @@ def test_short_horizon_steps_agree_with_float64(gl):
             x0, v0, l0 = download(sim)
             sim.step()
             x1, v1, _ = download(sim)
-            xr, vr, _ = step_reference(x0, v0, l0, scene.field, physics)
+            xr, vr, _ = step_reference(x0, v0, l0, scene.field, params)
             turned = np.sum(vr * v0, axis=1) < 0.9 * np.sum(v0 * v0, axis=1)
             collided += np.count_nonzero(turned)
             errors_x.append(np.abs(x1 - np.clip(xr, -1, 1)).max(axis=1))
@@ -73,7 +73,7 @@ def test_short_horizon_steps_agree_with_float64(gl):
 
 
 def test_no_live_particle_ends_a_step_deeper_than_one_cell(gl):
-    scene = Collision("circle+box+capsule", Physics(emit=True, bounce=0.9, sliding=0.2))
+    scene = Collision(CollisionParams(shape="circle+box+capsule", emit=True, bounce=0.9, sliding=0.2))
     with Simulation(gl, scene.graph(), 16384) as sim:
         scene.initialise(sim, np.random.default_rng(2))
         deepest = 0.0
@@ -88,9 +88,9 @@ def test_no_live_particle_ends_a_step_deeper_than_one_cell(gl):
 
 @pytest.mark.parametrize("sliding", [0.0, 0.5, 1.0])
 def test_energy_never_grows_with_r_at_most_one(gl, sliding):
-    physics = Physics(emit=False, drag=0.0, bounce=1.0, sliding=sliding)
-    scene = Collision("circle+box", physics)
-    g = -physics.gravity[1]
+    params = CollisionParams(emit=False, drag=0.0, bounce=1.0, sliding=sliding)
+    scene = Collision(params.changed(shape="circle+box"))
+    g = -params.gravity[1]
     n = 8192
     with Simulation(gl, scene.graph(), n) as sim:
         start(sim, scene, *free_particles(scene, n, np.random.default_rng(3)))
@@ -115,8 +115,8 @@ def test_energy_never_grows_with_r_at_most_one(gl, sliding):
 
 def test_degenerate_contacts_produce_no_nan(gl):
     field = CollisionField(RECT, [Box((0.0, -0.5), (0.2, 0.2)), Circle((0.35, -0.5), 0.15)])
-    physics = Physics(emit=False, drag=0.0, gravity=(0.0, -3.0))
-    scene = Collision(physics=physics, field=field)
+    params = CollisionParams(emit=False, drag=0.0, gravity=(0.0, -3.0))
+    scene = Collision(params, field=field)
     top = -0.3  # the box's top face
     x = np.array([[0.0, top], [0.0, top + 0.001], [0.0, top], [-0.999, -0.999],
                   [0.2, -0.3], [0.0, 0.0], [0.05, top]])
@@ -132,7 +132,7 @@ def test_degenerate_contacts_produce_no_nan(gl):
             x0, v0, l0 = download(sim)
             sim.step()
             x1, v1, _ = download(sim)
-            xr, vr, _ = step_reference(x0, v0, l0, field, physics)
+            xr, vr, _ = step_reference(x0, v0, l0, field, params)
             assert np.all(np.isfinite(xr)) and np.all(np.isfinite(vr)), "the reference made NaN"
             # NaN written to a packed texture would come back as the range's bottom, far from
             # the reference; contacts here are exact, so allow the grazing-branch bound.
@@ -145,8 +145,8 @@ def test_no_tunnelling_through_a_thin_wall_at_a_large_time_step(gl):
     cell = 2 / 256
     wall = Box((0.0, 0.0), (0.75 * cell, 1.0))  # 1.5 cells thick, floor to ceiling
     field = CollisionField(RECT, [wall], resolution=cells)
-    physics = Physics(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=0.05, bounce=1.0)
-    scene = Collision(physics=physics, field=field)
+    params = CollisionParams(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=0.05, bounce=1.0)
+    scene = Collision(params, field=field)
     n = 4096
     rng = np.random.default_rng(4)
     x = np.stack([rng.uniform(-0.9, -0.1, n), rng.uniform(-0.8, 0.8, n)], 1)
@@ -161,12 +161,12 @@ def test_no_tunnelling_through_a_thin_wall_at_a_large_time_step(gl):
 
 
 def test_respawn_rate_matches_the_lifetime_distribution(gl):
-    physics = Physics(lifetime=(1.0, 2.0))
-    scene = Collision("circle", physics)
+    params = CollisionParams(lifetime=(1.0, 2.0))
+    scene = Collision(params)
     n = 32768
     with Simulation(gl, scene.graph(), n) as sim:
         scene.initialise(sim, np.random.default_rng(5))
-        sim.run(int(2.5 / physics.dt))  # past the longest lifetime: steady
+        sim.run(int(2.5 / params.dt))  # past the longest lifetime: steady
         counts = []
         age = sim.download("life")[:, 0]
         for _ in range(60):
@@ -174,7 +174,7 @@ def test_respawn_rate_matches_the_lifetime_distribution(gl):
             new_age = sim.download("life")[:, 0]
             counts.append(np.count_nonzero(new_age < age))  # age went back: re-emitted
             age = new_age
-    expected = n * physics.dt / np.mean(physics.lifetime)
+    expected = n * params.dt / np.mean(params.lifetime)
     got = np.mean(counts)
     sigma = np.sqrt(expected / len(counts))
     print(f"re-emitted per step: {got:.1f}, expected N dt / mean lifetime = {expected:.1f} "
@@ -183,20 +183,20 @@ def test_respawn_rate_matches_the_lifetime_distribution(gl):
 
 
 def test_respawned_particles_start_at_the_emitter_with_emitted_velocities(gl):
-    physics = Physics(lifetime=(0.5, 0.5))
-    scene = Collision("circle", physics)
+    params = CollisionParams(lifetime=(0.5, 0.5))
+    scene = Collision(params)
     with Simulation(gl, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(6))
         sim.run(45)
         x, v, life = download(sim)
-    young = (life[:, 0] >= 0) & (life[:, 0] < 0.5 * physics.dt)  # born this step: age 0
+    young = (life[:, 0] >= 0) & (life[:, 0] < 0.5 * params.dt)  # born this step: age 0
     assert young.sum() > 20
     speed = np.hypot(*v[young].T)
     angle = np.arctan2(v[young, 1], v[young, 0])
-    assert np.all((speed > physics.speed[0] - 0.05) & (speed < physics.speed[1] + 0.05))
-    assert np.all(np.abs(angle - physics.direction) <= physics.spread / 2 + 0.02)
-    reach = physics.speed[1] * physics.dt * 2
-    assert np.all(np.hypot(*(x[young] - physics.emitter).T) <= reach)
+    assert np.all((speed > params.speed[0] - 0.05) & (speed < params.speed[1] + 0.05))
+    assert np.all(np.abs(angle - np.radians(params.direction)) <= np.radians(params.spread) / 2 + 0.02)
+    reach = params.speed[1] * params.dt * 2
+    assert np.all(np.hypot(*(x[young] - params.emitter).T) <= reach)
 
 
 def test_bad_scene_input_is_a_clear_error(tmp_path):
@@ -205,23 +205,23 @@ def test_bad_scene_input_is_a_clear_error(tmp_path):
     blank = tmp_path / "blank.png"
     Image.new("L", (32, 32), 255).save(blank)
     with pytest.raises(ParameterError, match="is empty: no solid pixels"):
-        Collision(str(blank))
+        Collision(shape=str(blank))
     solid = tmp_path / "solid.png"
     Image.new("L", (32, 32), 0).save(solid)
     with pytest.raises(ParameterError, match="solid everywhere"):
-        Collision(str(solid))
+        Collision(shape=str(solid))
     broken = tmp_path / "broken.png"
     broken.write_bytes(b"not a png")
     with pytest.raises(ParameterError, match="cannot be read as an image"):
-        Collision(str(broken))
+        Collision(shape=str(broken))
     with pytest.raises(ParameterError, match="does not exist"):
-        Collision(str(tmp_path / "missing.png"))
+        Collision(shape=str(tmp_path / "missing.png"))
     with pytest.raises(ParameterError, match="outside the scene rectangle"):
         CollisionField(RECT, [Circle((5.0, 5.0), 0.5)])
-    with pytest.raises(ParameterError, match="lifetime must be in"):
-        Physics(lifetime=(-1.0, 2.0))
+    with pytest.raises(ParameterError, match="--lifetime MIN must be in"):
+        CollisionParams(lifetime=(-1.0, 2.0))
     with pytest.raises(ParameterError, match="shape must be circle"):
-        Collision("triangle")
+        Collision(shape="triangle")
     with pytest.raises(ParameterError, match="field resolution must be in"):
         CollisionField(RECT, [], resolution=(0, 0))
 
@@ -250,8 +250,8 @@ def test_emission_matches_the_life_cycle_twin(gl):
     hash of their texel and the step (twins/life.py), as lib/life.glsl computes it."""
     from es2particles.twins.life import LIFE_STEPS, emits, life_random
 
-    physics = Physics(emit=True, lifetime=(2.0, 4.0))
-    scene = Collision("circle", physics, field_resolution=(32, 32))
+    params = CollisionParams(emit=True, lifetime=(2.0, 4.0))
+    scene = Collision(params.changed(field_resolution=32))
     n = 4096
     with Simulation(gl, scene.graph(), n) as sim:
         scene.initialise(sim, np.random.default_rng(3))
@@ -261,14 +261,14 @@ def test_emission_matches_the_life_cycle_twin(gl):
         sim.step()
         after = sim.download("life")
         uv, size = sim.layout.texel_uv(), sim.layout.size
-    aged = before + [physics.dt, 0.0]
-    born = emits(before, aged, physics.dt)
+    aged = before + [params.dt, 0.0]
+    born = emits(before, aged, params.dt)
     assert born.sum() > 10, "some particles must be born in the step"
     r = life_random(uv, step, size).astype(np.float64)
     expected_lifetime = 2.0 + 2.0 * r[:, 2]
     # The clock is exact: ages are whole steps, decoded in float32 from a range of +-LIFE_STEPS
     # steps, so only the decode's rounding remains.
-    decode = 4 * 2.0 ** -24 * LIFE_STEPS * physics.dt
+    decode = 4 * 2.0 ** -24 * LIFE_STEPS * params.dt
     # The hash takes fract() of float32 products of numbers up to ~400: ulp-level differences
     # (the driver may fuse multiply-adds) reach ~4e-3 in r (measured 3.9e-3 on llvmpipe), so the
     # twin is not bit-exact there. A wrong formula (another r component, another range) is O(1).
@@ -277,5 +277,5 @@ def test_emission_matches_the_life_cycle_twin(gl):
     lifetime_error = np.abs(after[born, 1] - expected_lifetime[born]).max()
     print(f"emission vs twin: age {age_error:.2e}, lifetime {lifetime_error:.2e}")
     assert age_error <= decode, "a new particle's age starts at 0"
-    assert lifetime_error <= physics.dt / 2 + hash_error * 2.0, "lifetimes are whole steps"
+    assert lifetime_error <= params.dt / 2 + hash_error * 2.0, "lifetimes are whole steps"
     assert np.abs(after[~born, 0] - aged[~born, 0]).max() <= decode, "the others aged by dt"

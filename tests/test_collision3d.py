@@ -17,7 +17,7 @@ from es2particles.errors import ParameterError
 from es2particles.fields.field3d import (Box, Capsule, Sphere, Torus, VoxelField, load_mesh,
                                   normal_bytes, octahedral_decode, octahedral_encode, parse_shapes)
 from es2particles.scenes.field_compression import collision_errors, memory_rows
-from es2particles.scenes.collision3d import Collision3D, Physics3D
+from es2particles.scenes.collision3d import Collision3D, Collision3DParams
 from es2particles.frame.simulation import Simulation
 from es2particles.twins.collision3d import Object, flight_random, step_reference
 
@@ -160,8 +160,8 @@ def test_gpu_step_matches_the_float64_twin(gl, shape, changes, field_format):
     numbers differ by a few 1/1024, test_flight_randomness checks its statistics instead).
     A branch taken the other way in float32 is rare: the bound holds for 99.9% and the worst
     stays within a voxel."""
-    p = Physics3D(**{"jitter": 0.0, "lifetime": (400.0, 400.0), **changes})
-    scene = Collision3D(shape, p, field_format=field_format)
+    p = Collision3DParams(**{"jitter": 0.0, "lifetime": (400.0, 400.0), **changes})
+    scene = Collision3D(p.changed(shape=shape, field_format=field_format))
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba32f")
     try:
         _scatter(sim, np.random.default_rng(3))
@@ -184,8 +184,8 @@ def test_gpu_step_matches_the_float64_twin(gl, shape, changes, field_format):
 def test_flight_randomness_is_a_uniform_kick(gl):
     """Free particles (no gravity, friction or object near) get a kick uniform in
     +-jitter sqrt(dt) per component: mean 0, variance (jitter^2 dt) / 3, independent axes."""
-    p = Physics3D(jitter=2.0, gravity=0.0, viscosity=0.0, lifetime=(400.0, 400.0))
-    scene = Collision3D("sphere:0,1,0,0.3", p)
+    p = Collision3DParams(jitter=2.0, gravity=(0.0, 0.0, 0.0), viscosity=0.0, lifetime=(400.0, 400.0))
+    scene = Collision3D(p.changed(shape="sphere:0,1,0,0.3"))
     sim = Simulation(gl, scene.graph(), 2 ** 14, fmt="rgba32f")
     try:
         n = sim.count
@@ -207,9 +207,9 @@ def test_flight_randomness_is_a_uniform_kick(gl):
 
 def _depths(scene, x, step):
     """Depth inside the exact shapes (positive inside) of world points after ``step`` steps."""
-    obj = Object(scene.field, scene.physics)
-    q = obj.to_object(x, obj.at(step * scene.physics.dt))
-    return -scene.field.exact(q)[0] * scene.physics.scale
+    obj = Object(scene.field, scene.params)
+    q = obj.to_object(x, obj.at(step * scene.params.dt))
+    return -scene.field.exact(q)[0] * scene.params.scale
 
 
 @pytest.mark.parametrize("shape, changes", [
@@ -220,7 +220,7 @@ def _depths(scene, x, step):
 def test_no_particle_deeper_than_a_voxel(gl, shape, changes):
     """The default RGBA8 state, emission and all: after every step, no living particle lies
     deeper than one voxel inside the object, still or moving."""
-    scene = Collision3D(shape, Physics3D(**changes))
+    scene = Collision3D(Collision3DParams(shape=shape, **changes))
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba8", rounding="dither")
     try:
         scene.initialise(sim, np.random.default_rng(0))
@@ -231,7 +231,7 @@ def test_no_particle_deeper_than_a_voxel(gl, shape, changes):
                 life = sim.download("life")
                 alive = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
                 depth = _depths(scene, sim.download("position")[alive], step + 1)
-                deepest = max(deepest, depth.max() / (scene.field.voxel * scene.physics.scale))
+                deepest = max(deepest, depth.max() / (scene.field.voxel * scene.params.scale))
         assert deepest < 1.0, deepest
     finally:
         sim.release()
@@ -241,7 +241,7 @@ def test_thin_shell_does_not_leak(gl):
     """An open dome (a mesh one voxel thick in the field) under the stream: no particle gets from
     outside the shell to inside its cavity within a step."""
     pytest.importorskip("trimesh")
-    scene = Collision3D(str(DATA / "dome.obj"), Physics3D(jitter=0.5), field_resolution=40)
+    scene = Collision3D(shape=str(DATA / "dome.obj"), jitter=0.5, field_resolution=40)
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba8", rounding="dither")
     centre = np.array([0.0, 0.5, 0.0])  # the dome's sphere: radius 1, rim at y = 0.5
     try:
@@ -265,10 +265,10 @@ def test_thin_shell_does_not_leak(gl):
 def test_no_tunnelling_at_the_largest_speed(gl):
     """Particles at the largest speed the velocity range holds, in steps far longer than the
     plate is thick (0.6 m a step against 2 voxels), all stay on their side of it."""
-    p = Physics3D(dt=0.05, gravity=0.0, jitter=0.0, viscosity=0.0, bounce=1.0,
+    p = Collision3DParams(dt=0.05, gravity=(0.0, 0.0, 0.0), jitter=0.0, viscosity=0.0, bounce=1.0,
                   lifetime=(400.0, 400.0))
-    scene = Collision3D("box:0,1,0,1.5,0.06,1.5", p, field_resolution=64)
-    assert 2 * 0.06 < 0.6 * scene.physics.dt * 20
+    scene = Collision3D(p.changed(shape="box:0,1,0,1.5,0.06,1.5", field_resolution=64))
+    assert 2 * 0.06 < 0.6 * scene.params.dt * 20
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba32f")
     try:
         rng = np.random.default_rng(5)
@@ -290,8 +290,8 @@ def test_no_tunnelling_at_the_largest_speed(gl):
 def test_contact_gives_no_energy(gl):
     """Dropped at rest on the sphere and the floor, with no friction or randomness: no
     particle's energy v^2 / 2 + g y ever exceeds its start."""
-    p = Physics3D(jitter=0.0, viscosity=0.0, bounce=0.9, sliding=0.3, lifetime=(400.0, 400.0))
-    scene = Collision3D("sphere:0,1,0,1", p)
+    p = Collision3DParams(jitter=0.0, viscosity=0.0, bounce=0.9, sliding=0.3, lifetime=(400.0, 400.0))
+    scene = Collision3D(p.changed(shape="sphere:0,1,0,1"))
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba32f")
     try:
         rng = np.random.default_rng(7)
@@ -301,7 +301,8 @@ def test_contact_gives_no_energy(gl):
         sim.upload("position", x)
         sim.upload("velocity", np.zeros((n, 3)))
         sim.upload("life", np.tile([1.0, 300.0], (n, 1)))
-        start = p.gravity * x[:, 1]
+        g = -p.gravity[1]
+        start = g * x[:, 1]
         worst, kept = -np.inf, np.ones(n, bool)
         for step in range(150):
             sim.step()
@@ -309,7 +310,7 @@ def test_contact_gives_no_energy(gl):
             # One that slid off the floor's edge was emitted anew (its age restarted): not the
             # same particle any more.
             kept &= sim.download("life")[:, 0] > 1.0 + step * p.dt
-            energy = 0.5 * np.sum(v * v, axis=1) + p.gravity * x[:, 1]
+            energy = 0.5 * np.sum(v * v, axis=1) + g * x[:, 1]
             worst = max(worst, np.max((energy - start)[kept]))
         assert kept.mean() > 0.5
         # float32 state: a few 1e-6 of the 30 J/kg at the top.
@@ -319,23 +320,23 @@ def test_contact_gives_no_energy(gl):
 
 
 def test_stokes_friction_is_six_pi_eta_r_over_m():
-    p = Physics3D(viscosity=1e-3, radius=0.01, mass=2e-3)
+    p = Collision3DParams(viscosity=1e-3, radius=0.01, mass=2e-3)
     assert p.drag == pytest.approx(6 * np.pi * 1e-3 * 0.01 / 2e-3, rel=1e-12)
-    p = Physics3D(force=(0.0, 0.0, 2e-4), mass=1e-4, gravity=9.81)
+    p = Collision3DParams(force=(0.0, 0.0, 2e-4), mass=1e-4, gravity=(0.0, -9.81, 0.0))
     assert np.allclose(p.acceleration, (0.0, -9.81, 2.0))
 
 
 def test_model_matrix_carries_the_rest_pose_as_the_shader_does():
     """The drawn object and the field agree: the model matrix maps a rest-pose point to where
     the twin's pose (the shader's) puts the object point that was there."""
-    scene = Collision3D("box:0,1.2,0,0.8,0.3,0.5",
-                        Physics3D(spin=(70.0, 0.2, 1.0, 0.1), sway=(0.3, 0.1, 0.2, 1.7), scale=1.2))
+    scene = Collision3D(shape="box:0,1.2,0,0.8,0.3,0.5", spin=(70.0, 0.2, 1.0, 0.1),
+                        sway=(0.3, 0.1, 0.2, 1.7), scale=1.2)
     rest = np.array([[0.5, 1.4, 0.3], [-0.7, 1.0, 0.1]])
-    obj = Object(scene.field, scene.physics)
+    obj = Object(scene.field, scene.params)
     for step in (0, 37, 200):
         m = scene.model_at(step)
         world = rest @ m[:3, :3].T + m[:3, 3]
-        q = obj.to_object(world, obj.at(step * scene.physics.dt))
+        q = obj.to_object(world, obj.at(step * scene.params.dt))
         assert np.allclose(q + scene.field.pivot, rest, atol=1e-12)
 
 
@@ -360,8 +361,8 @@ def test_compressed_field_collides_within_its_measured_error(gl):
     if reason:
         pytest.skip(reason)
     base = Collision3D()
-    still = dataclasses.replace(base.physics, jitter=0.0)
-    rows = collision_errors(gl, lambda fmt: Collision3D(physics=still, field_format=fmt,
+    still = dataclasses.replace(base.params, jitter=0.0)
+    rows = collision_errors(gl, lambda fmt: Collision3D(still.changed(field_format=fmt),
                                                         field=base.field),
                             base.field, count=1024, steps=60, blocks=((4, 4), (8, 8)))
     found = {fmt: (depth, median) for fmt, depth, median, _ in rows}
@@ -380,7 +381,7 @@ SMALL = ["--particles", "1024", "--size", "96x96", "--steps", "30"]
 @pytest.mark.parametrize("args, message", [
     (["--shape", "sphere:1,2"], "sphere:CX,CY,CZ,R"), (["--spin", "fast"], "--spin must be"),
     (["--field-format", "astc7x7"], "field format must be"),
-    (["--emitter", "0,9,0"], "emitter y must be"), (["--sway", "1,0,0,0"], "sway needs a period"),
+    (["--emitter", "0,9,0"], "--emitter Y must be in [-4, 7], got 9"), (["--sway", "1,0,0,0"], "sway needs a period"),
     (["--shape", "torus:0,1,0,0.8,0.01"], "thinner than two voxels")])
 def test_bad_options_are_one_line(tmp_path, capsys, args, message):
     assert main(["run", "collision3d", *SMALL, *args, "--out", str(tmp_path / "x.png")]) == 2

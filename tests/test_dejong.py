@@ -31,7 +31,7 @@ def histogram(points, bins):
 
 @pytest.mark.parametrize("coefficients", [ARTICLE_COEFFICIENTS, (2.01, -2.53, 1.61, -0.33)])
 def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coefficients):
-    start, got = run_scene(gl, DeJong(coefficients, iterations=3), 2 ** 16, 1, seed=5,
+    start, got = run_scene(gl, DeJong(coefficients=coefficients, iterations=3), 2 ** 16, 1, seed=5,
                            rounding="nearest")
     error = np.abs(got - reference(start, coefficients, 3)).max()
     bound = one_step_bound(coefficients, 3)
@@ -42,7 +42,7 @@ def test_one_step_matches_float64_within_the_packing_and_trig_bound(gl, coeffici
 
 def test_density_after_20_stateful_steps_correlates_with_float64(gl):
     steps = 20
-    start, got = run_scene(gl, DeJong(ARTICLE_COEFFICIENTS), 2 ** 18, steps, seed=7,
+    start, got = run_scene(gl, DeJong(coefficients=ARTICLE_COEFFICIENTS), 2 ** 18, steps, seed=7,
                            rounding="nearest")
     exact = start.copy()
     for _ in range(steps):
@@ -53,7 +53,7 @@ def test_density_after_20_stateful_steps_correlates_with_float64(gl):
 
 
 def test_reseed_mode_matches_float64_per_particle_and_in_density(gl):
-    scene = DeJong(ARTICLE_COEFFICIENTS, reseed=True)
+    scene = DeJong(coefficients=ARTICLE_COEFFICIENTS, reseed=True)
     n = 2 ** 20
     with Simulation(gl, scene.graph(), n) as sim:
         assert sim.plan.buffers == {"position": 1}  # nothing reads last step's position
@@ -75,7 +75,7 @@ def test_reseed_mode_matches_float64_per_particle_and_in_density(gl):
 def test_top_of_the_range_stays_at_plus_two(gl):
     # With a = c = pi/2 and b = d = pi, the particle at (1, 1) maps to sin(pi/2) - cos(pi) = 2 on
     # both axes: the top of the packed range. It must decode as +2, never wrap to -2.
-    scene = DeJong((np.pi / 2, np.pi, np.pi / 2, np.pi), iterations=1)
+    scene = DeJong(coefficients=(np.pi / 2, np.pi, np.pi / 2, np.pi), iterations=1)
     with Simulation(gl, scene.graph(), 3) as sim:
         sim.upload("position", np.array([[1, 1], [2, 2], [2.5, -7]]))
         start = sim.download("position")

@@ -19,7 +19,6 @@ from es2particles.frame.settings import FrameSettings
 from es2particles.gl.command import DrawCommand
 from es2particles.render.camera import Camera
 from es2particles.scenes import Clifford, Collision3D, DeJong, Fountain, Smoke
-from es2particles.scenes.smoke import SmokePhysics
 
 
 def draws(recording):
@@ -263,7 +262,7 @@ def test_a_setting_the_scene_does_not_use_is_refused_naming_it(scene, setting, o
 def test_every_built_in_scene_plans_with_no_gl_and_names_its_stages():
     kinds = {}
     for scene in (DeJong(), DeJong(reseed=True), Clifford(), Fountain(),
-                  Collision3D(field_resolution=16), Smoke(), Smoke(SmokePhysics(tau=0.0))):
+                  Collision3D(field_resolution=16), Smoke(), Smoke(tau=0.0)):
         plan = plan_frame(scene, FrameSettings(particles=4096, size=(64, 64)))
         kinds[scene.name] = {s.kind for s in plan.stages}
         assert plan.present in plan.resources

@@ -233,7 +233,7 @@ def cli(*args, cwd):
 @pytest.mark.parametrize("args, message", [
     (["export", "fountain", "--gradient", "ice", "--out", "p.html"],
      "--gradient: scene 'fountain' does not use this setting (it draws 3D sprites"),
-    (["export", "smoke", "--opacity", "2", "--out", "p.html"], "opacity must be in [0.0, 1.0]"),
+    (["export", "smoke", "--opacity", "2", "--out", "p.html"], "--opacity must be in [0, 1], got 2"),
     (["export", "dejong", "--format", "rgba16f", "--out", "p.html"], "--format rgba16f"),
     (["export", "dejong", "--accumulate", "4", "--out", "p.html"], "--accumulate"),
     (["export", "dejong", "--out", "p.htm"], "--out must end in .html"),

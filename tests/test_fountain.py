@@ -8,7 +8,7 @@ from es2particles import Simulation
 from es2particles.render.camera import Camera
 from es2particles.cli import main
 from es2particles.scenes import Fountain
-from es2particles.scenes.fountain import FountainPhysics
+from es2particles.scenes.fountain import FountainParams
 from es2particles.frame.pipeline import Renderer
 from es2particles.render.meshes import box
 from es2particles.render.sprites import Sprites
@@ -23,8 +23,8 @@ def alive(n, lifetime=2.4):
 
 @pytest.mark.parametrize("fmt, floor", [("rgba32f", "kill"), ("rgba8", "bounce")])
 def test_one_step_matches_the_float64_twin(gl, fmt, floor):
-    physics = FountainPhysics(floor=floor, drag=0.3)
-    scene = Fountain(physics)
+    params = FountainParams(floor=floor, drag=0.3)
+    scene = Fountain(params)
     rng = np.random.default_rng(1)
     n = 4096
     x = np.stack([rng.uniform(-3, 3, n), rng.uniform(0.0, 3.0, n), rng.uniform(-3, 3, n)], 1)
@@ -36,7 +36,7 @@ def test_one_step_matches_the_float64_twin(gl, fmt, floor):
         x0, v0 = sim.download("position"), sim.download("velocity")
         sim.step()
         x1, v1 = sim.download("position"), sim.download("velocity")
-    xr, vr, died = fountain_step(x0, v0, physics)
+    xr, vr, died = fountain_step(x0, v0, params)
     codes = {"rgba8": (12 / 65024, 24 / 65024), "rgba32f": (0.0, 0.0)}[fmt]  # 1 code x, v
     ex = np.abs(x1[~died] - xr[~died]).max()
     ev = np.abs(v1[~died] - vr[~died]).max()
@@ -50,7 +50,7 @@ def test_one_step_matches_the_float64_twin(gl, fmt, floor):
 
 @pytest.mark.parametrize("floor", ["kill", "bounce"])
 def test_nothing_ends_below_the_floor(gl, floor):
-    scene = Fountain(FountainPhysics(floor=floor))
+    scene = Fountain(FountainParams(floor=floor))
     with Simulation(gl, scene.graph(), 4096, rounding="dither") as sim:
         scene.initialise(sim, np.random.default_rng(0))
         lowest = np.inf
@@ -67,7 +67,7 @@ def sprite_frame(gl, positions, camera, meshes=(), size=(256, 256), point_size=2
                  **options):
     """Render particles at ``positions`` (alive, at rest) as white discs (``options``: the
     Sprites declaration's) and return the (h, w, 3) image."""
-    scene = Fountain(FountainPhysics(gravity=0.0))
+    scene = Fountain(FountainParams(gravity=(0.0, 0.0, 0.0)))
     n = len(positions)
     with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
         sim.upload("position", positions)
@@ -168,11 +168,11 @@ import json, numpy as np
 from es2particles import open_context, Simulation
 from es2particles.render.camera import Camera
 from es2particles.scenes import Fountain
-from es2particles.scenes.fountain import FountainPhysics
+from es2particles.scenes.fountain import FountainParams
 from es2particles.frame.pipeline import Renderer
 from es2particles.render.sprites import Sprites
 with open_context() as ctx:
-    scene = Fountain(FountainPhysics(gravity=0.0))
+    scene = Fountain(FountainParams(gravity=(0.0, 0.0, 0.0)))
     with Simulation(ctx, scene.graph(), 1, fmt="rgba32f") as sim:
         sim.upload("position", np.array([[0.3, 1.2, 0.5]]))
         sim.upload("life", np.array([[0.0, 2.4]]))
@@ -219,15 +219,16 @@ def test_sprites_are_the_same_in_the_core_and_the_compatibility_profile():
 def test_emitter_table_points_directions_and_rates(gl):
     """Two emitters with rates 3:1, one launching up, one sideways along +x: newly emitted
     particles sit on their emitter, share the particles 3:1, and fly along its direction."""
-    emitters = ((-2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 3.0), (2.0, 0.5, 0.0, 1.0, 0.0, 0.0, 1.0))
-    physics = FountainPhysics(emitters=emitters, lifetime=(0.5, 0.5), gravity=0.0, drag=0.0)
-    scene = Fountain(physics)
+    emitters = "-2,0,0,0,1,0,3; 2,0.5,0,1,0,0,1"
+    params = FountainParams(emitters=emitters, lifetime=(0.5, 0.5), gravity=(0.0, 0.0, 0.0),
+                            drag=0.0)
+    scene = Fountain(params)
     n = 8192
     with Simulation(gl, scene.graph(), n, fmt="rgba32f") as sim:
         scene.initialise(sim, np.random.default_rng(0))
         sim.run(40)
         x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
-    new = (life[:, 0] < 0.5 * physics.dt) & (life[:, 0] >= 0)  # emitted this step: at rest where born
+    new = (life[:, 0] < 0.5 * params.dt) & (life[:, 0] >= 0)  # emitted this step: at rest where born
     assert new.sum() > 50
     first = np.linalg.norm(x[new] - (-2.0, 0.0, 0.0), axis=1) < 1e-4
     second = np.linalg.norm(x[new] - (2.0, 0.5, 0.0), axis=1) < 1e-4
@@ -259,7 +260,7 @@ def test_a_png_sprite_is_drawn_the_right_way_up(gl, tmp_path):
 def test_particles_leaving_the_position_range_are_re_emitted_not_stuck(gl):
     """An emitter near the floor's edge: particles crossing the range's side (x = 6) would be
     clamped onto an invisible wall; they die and are re-emitted instead."""
-    scene = Fountain(FountainPhysics(emitters=((5.5, 0.0, 0.0, 1.0, 1.0, 0.0),)))
+    scene = Fountain(FountainParams(emitters="5.5,0,0,1,1,0"))
     with Simulation(gl, scene.graph(), 2048, fmt="rgba32f") as sim:
         scene.initialise(sim, np.random.default_rng(0))
         stuck = 0

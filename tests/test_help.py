@@ -48,5 +48,7 @@ def test_a_run_imports_only_its_own_scene():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["['es2particles.scenes.attractor',", "'es2particles.scenes.base',",
                                   "'es2particles.scenes.dejong']"]
-    with pytest.raises(SystemExit):
+    from es2particles.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="invalid choice: 'dejongg' .*'smoke'"):
         build_parser(["run", "dejongg"]).parse_args(["run", "dejongg", "--out", "x.png"])

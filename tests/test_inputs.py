@@ -45,13 +45,13 @@ def test_a_fifo_as_an_image_is_refused_not_waited_on(tmp_path, capsys):
 def test_a_nonsense_intensity_is_refused(tmp_path, capsys):
     assert main(["run", "dejong", *SMALL, "--intensity", "1e39", "--out",
                  str(tmp_path / "x.png")]) == 2
-    assert "intensity must be in [0, 1000000.0]" in capsys.readouterr().err
+    assert "--intensity must be in [0, 1e+06], got 1e+39" in capsys.readouterr().err
 
 
 def test_gravity_errors_name_the_value_typed(tmp_path, capsys):
-    assert main(["run", "collision", *SMALL, "--gravity", "inf", "--out",
+    assert main(["run", "collision", *SMALL, "--gravity", "0,inf", "--out",
                  str(tmp_path / "x.png")]) == 2
-    assert "gravity must be finite, got inf" in capsys.readouterr().err
+    assert "--gravity Y must be finite, got inf" in capsys.readouterr().err
 
 
 @pytest.mark.gl

@@ -10,7 +10,7 @@ import es2particles
 
 PACKAGE = Path(es2particles.__file__).resolve().parent
 # Lowest first: a module may import its own layer and the ones before it.
-LAYERS = ["errors", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run", "export",
+LAYERS = ["errors", "params", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run", "export",
           "cluster", "report", "cli", "__main__", "__init__"]
 
 

@@ -12,7 +12,7 @@ from es2particles import Simulation
 from es2particles.render.camera import Camera
 from es2particles.errors import ParameterError
 from es2particles.scenes import Fountain
-from es2particles.scenes.fountain import FountainPhysics
+from es2particles.scenes.fountain import FountainParams
 from es2particles.frame.pipeline import Renderer
 from es2particles.frame.motion import model_uniform
 from es2particles.render.meshes import box, capsule, from_triangles, sphere, torus
@@ -187,7 +187,7 @@ CAMERA = Camera(eye=(0.0, 2.0, 6.0), target=(0.0, 1.0, 0.0), fov=50)
 
 def mesh_frame(gl, meshes, model, light=(0.0, 3.0, 6.0)):
     """Only the meshes (the one particle is dead), drawn with ``model``: the (h, w, 3) image."""
-    scene = Fountain(FountainPhysics(gravity=0.0))
+    scene = Fountain(FountainParams(gravity=(0.0, 0.0, 0.0)))
     with Simulation(gl, scene.graph(), 1, fmt="rgba32f") as sim:
         sim.upload("position", np.array([[0.0, 1.0, 0.0]]))
         sim.upload("life", np.array([[2.4, 2.4]]))

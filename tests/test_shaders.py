@@ -78,23 +78,19 @@ def programs():
     from es2particles.frame.state import FORMATS
     from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
     from es2particles.scenes.collision import RECT
-    from es2particles.scenes.collision3d import Physics3D
-    from es2particles.scenes.fountain import FountainPhysics
-    from es2particles.scenes.smoke import SmokePhysics
 
     scenes = {"dejong": DeJong(), "dejong-reseed": DeJong(reseed=True), "clifford": Clifford(),
               "collision": Collision(field=CollisionField(RECT, [], resolution=(8, 8))),
               "fountain": Fountain(),
-              "fountain-bounce": Fountain(FountainPhysics(floor="bounce",
-                                                          emitters=((0, 0, 0), (1, 0, 1)))),
+              "fountain-bounce": Fountain(floor="bounce", emitters="0,0,0;1,0,1"),
               "collision3d": Collision3D(field_resolution=16),
               "collision3d-float": Collision3D(field_resolution=16, field_format="rgba32f"),
               "collision3d-smooth": Collision3D(field_resolution=16,
                                                 field_format="rgba8-smooth"),
-              "collision3d-moving": Collision3D(field_resolution=16, physics=Physics3D(
-                  spin=(90.0, 0.0, 1.0, 0.0))),
-              "smoke": Smoke(), "smoke-tracers": Smoke(SmokePhysics(tau=0.0)),
-              "smoke-plain": Smoke(shadows=False, sort="off"), "smoke-spread": Smoke(sort=7)}
+              "collision3d-moving": Collision3D(field_resolution=16,
+                                                spin=(90.0, 0.0, 1.0, 0.0)),
+              "smoke": Smoke(), "smoke-tracers": Smoke(tau=0.0),
+              "smoke-plain": Smoke(shadows="off", sort="off"), "smoke-spread": Smoke(sort="7")}
     out = {}
     for fmt in FORMATS:
         for rounding in ("nearest", "dither"):

@@ -9,7 +9,7 @@ import pytest
 
 from es2particles import ParameterError, PassGraph, Simulation
 from es2particles.render.camera import Camera
-from es2particles.scenes.smoke import Smoke, SmokePhysics
+from es2particles.scenes.smoke import Smoke, SmokeParams
 from es2particles.frame.pipeline import Renderer
 from es2particles.render.shadow import RGBA8_UNIT, OpacityShadow, light_through, opacity_map
 from es2particles.render.sprites import Sprites, smoke_texture
@@ -31,7 +31,7 @@ def test_inertial_plan_runs_acceleration_then_velocity_and_position():
 
 
 def test_tracers_leave_acceleration_and_velocity_out():
-    plan = Smoke(SmokePhysics(tau=0.0)).graph().plan(Smoke.render_reads)
+    plan = Smoke(SmokeParams(tau=0.0)).graph().plan(Smoke.render_reads)
     assert [p.name for p in plan.passes] == ["life", "position"]
     assert {p.name for p in plan.left_out_passes} == {"acceleration", "velocity"}
     assert set(plan.left_out_quantities) == {"acceleration", "velocity"}
@@ -62,7 +62,7 @@ def test_the_step_solves_stokes_relaxation_exactly_for_the_air_it_sees(tau, dt):
     """The twin's step (``relax``, what the passes compute) against a fine Runge-Kutta
     integration of v' = (u - v) / tau + g with u frozen over the step, stiff to loose (dt / tau
     from 333 to 1e-5, where tau (dt - phi) cancels in float32)."""
-    p = SmokePhysics(tau=tau, dt=dt)
+    p = SmokeParams(tau=tau, dt=dt)
     u, g = np.array([0.4, 0.9, -0.2]), np.asarray(p.gravity)
     x0, v0 = np.array([[1.0, 2.0, 3.0]]), np.array([[-1.0, 0.5, 2.0]])
     _, v1, x1 = twin.relax(x0, v0, u, p)
@@ -102,7 +102,7 @@ def run_passes(gl, physics, x, v, steps, fmt="rgba32f"):
 @pytest.mark.parametrize("tau, dt", [(0.3, 1 / 30), (0.02, 1 / 30), (1e-4, 1 / 30),
                                      (100.0, 1 / 120)])
 def test_inertial_passes_follow_the_twin(gl, tau, dt):
-    p = SmokePhysics(tau=tau, dt=dt)
+    p = SmokeParams(tau=tau, dt=dt)
     rng = np.random.default_rng(1)
     x = cloud(3000, rng, p)
     v = np.asarray(p.wind) + rng.normal(0, 0.3, x.shape)
@@ -134,7 +134,7 @@ def test_inertial_passes_follow_the_twin(gl, tau, dt):
 
 
 def test_tracer_pass_follows_the_twin(gl):
-    p = SmokePhysics(tau=0.0)
+    p = SmokeParams(tau=0.0)
     rng = np.random.default_rng(2)
     x = cloud(3000, rng, p)
     steps = 12
@@ -156,7 +156,7 @@ def test_packed_and_half_state_round_one_step_by_half_a_step_of_the_format(gl, f
     state as stored, against the float64 twin from the same values, differs by the rounding of
     the writes only (half a code, or an ulp of the value, per component). The acceleration
     (range +-2 max speed / tau) is rounded too, and reaches the velocity times phi ~ tau."""
-    p = SmokePhysics(tau=0.05)
+    p = SmokeParams(tau=0.05)
     rng = np.random.default_rng(3)
     x = cloud(2000, rng, p)
     scene = Smoke(p)
@@ -189,7 +189,7 @@ def test_packed_and_half_state_round_one_step_by_half_a_step_of_the_format(gl, f
 def test_an_acceleration_beyond_half_floats_is_refused(gl):
     """At tau 1e-5 the acceleration's range (2 max speed / tau) passes rgba16f's 65504: one line
     naming the quantity, not a silent overflow."""
-    scene = Smoke(SmokePhysics(tau=1e-5))
+    scene = Smoke(SmokeParams(tau=1e-5))
     with pytest.raises(ParameterError, match="quantity 'acceleration' reaches .* rgba16f"):
         Simulation(gl, scene.graph(), 64, outputs=("position", "life"), fmt="rgba16f")
     Simulation(gl, scene.graph(), 64, outputs=("position", "life"), fmt="rgba8").release()
@@ -372,7 +372,7 @@ def test_cli_errors_are_one_line(tmp_path):
 
     for args, name in ((["--tau", "-1"], "tau"), (["--sort", "0"], "sort"),
                        (["--light", "0,2.5,0"], "light"), (["--sway", "1,0,0"], "sway"),
-                       (["--noise", "0.5,0,0.6,1"], "noise frequency")):
+                       (["--noise", "0.5,0,0.6,1"], "--noise FREQ")):
         r = subprocess.run([sys.executable, "-m", "es2particles", "plan", "smoke", *args],
                            capture_output=True, text=True, cwd=tmp_path)
         assert r.returncode == 2, (args, r.stdout, r.stderr)
@@ -385,7 +385,7 @@ def test_the_noise_offset_wraps_on_its_period():
     air as it was: the twin at a late time against the unwrapped noise."""
     from es2particles.twins import flow
 
-    p = SmokePhysics()
+    p = SmokeParams()
     t = 4000.0  # the offset has drifted ~2500 noise cells
     x = np.random.default_rng(5).uniform(-2, 2, (200, 3)) + np.asarray(p.sphere[:3])
     centre, velocity = twin.sphere(p, t)
@@ -418,11 +418,11 @@ def test_the_scene_end_to_end(gl):
     sky = image[:100].astype(float).mean(axis=2)  # above the floor's horizon
     background = 255 * np.mean((0.11, 0.12, 0.15))
     assert np.count_nonzero(sky > background + 40) > 200  # smoke
-    centre, _ = twin.sphere(scene.physics, 60 * scene.physics.dt)
+    centre, _ = twin.sphere(scene.params, 60 * scene.params.dt)
     assert np.allclose(scene.model_at(60)[:3, 3], centre)
     (pixel,), _, _ = scene.camera_at(0, 1).project(centre[None], (160, 160))
     r, g, b = image[int(pixel[1]), int(pixel[0])].astype(int)
     assert g > r + 20 and g > b + 20  # the green sphere
-    with Pipeline(gl, Smoke(SmokePhysics(tau=0.0), shadows=False, sort="off"), 256,
+    with Pipeline(gl, Smoke(tau=0.0, shadows="off", sort="off"), 256,
                   (32, 32)) as p:
         assert "left out: pass acceleration, pass velocity" in p.describe()

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from es2particles import PassGraph, Simulation
-from es2particles.scenes.collision import Collision, Physics
+from es2particles.scenes.collision import Collision, CollisionParams
 from es2particles.scenes.dejong import DeJong, dejong_map
 from es2particles.report.stability import free_scene, run_particles
 from es2particles.frame.state import Layout
@@ -43,7 +43,7 @@ def test_stiff_spring_stays_bounded(gl, omega_dt):
 
 
 def test_values_beyond_the_velocity_range_clamp_never_wrap(gl):
-    scene = Collision(physics=Physics(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
+    scene = Collision(CollisionParams(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
                                       speed=(0.5, 1.0)),
                       field=free_scene().field)
     x = np.array([[0.0, 0.9], [0.5, 0.9], [-0.5, 0.9]])
@@ -72,7 +72,7 @@ def test_positions_at_the_top_of_their_range_stay_there(gl):
 
 @pytest.mark.parametrize("fmt", ["rgba16f", "rgba32f"])
 def test_injected_nan_and_inf_are_contained(gl, fmt):
-    scene = Collision("circle", Physics(lifetime=(1.0, 2.0)))
+    scene = Collision(lifetime=(1.0, 2.0))
     n = 1024
     with Simulation(gl, scene.graph(), n, fmt=fmt) as sim:
         scene.initialise(sim, np.random.default_rng(1))
@@ -99,7 +99,7 @@ def test_injected_nan_and_inf_are_contained(gl, fmt):
         for q in after:
             assert np.allclose(sim.download(q)[good], after[q][good], atol=1e-6), q
     life = after["life"][bad]
-    assert np.all((life[:, 0] < 0) | (life[:, 0] >= life[:, 1]) | (life[:, 0] < scene.physics.dt)), \
+    assert np.all((life[:, 0] < 0) | (life[:, 0] >= life[:, 1]) | (life[:, 0] < scene.params.dt)), \
         "a non-finite particle is reset (dead, or re-emitted this step)"
 
 
@@ -121,7 +121,7 @@ def test_dejong_resets_a_non_finite_particle_to_its_grid_start(gl, fmt):
 def test_dejong_extreme_coefficients(gl, coefficients):
     from test_dejong import one_step_bound, reference
 
-    scene = DeJong(coefficients)
+    scene = DeJong(coefficients=coefficients)
     with Simulation(gl, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(2))
         edge = np.array([[2.0, 2.0], [-2.0, -2.0], [2.0, -2.0], [-2.0, 2.0]])

@@ -220,6 +220,63 @@ class Pipeline:
         """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
         return {name: self.sim.download(name) for name in self.sim.buffers}
 
+    def save_state(self, path):
+        """Write the state to ``path`` (.npz): each quantity decoded to world units, float64
+        (N, components), under its name; and what a run resumes from, byte for byte: each
+        part's texels as stored (``texels.NAME.PART``) and the scene, count, format and steps
+        done (``meta``, JSON)."""
+        import json
+
+        from ..io.output import save_arrays
+
+        arrays = {name: values for name, values in self.state().items()}
+        for name, buffer in self.sim.buffers.items():
+            for part, texels in enumerate(np.moveaxis(buffer.read_texels(), 1, 0)):
+                arrays[f"texels.{name}.{part}"] = texels
+        meta = {"scene": self.scene.name, "particles": self.sim.count, "format": self.sim.fmt,
+                "steps_done": self.sim.steps_done,
+                "quantities": {n: b.parts for n, b in self.sim.buffers.items()}}
+        arrays["meta"] = np.array(json.dumps(meta))
+        return save_arrays(arrays, path)
+
+    def load_state(self, path):
+        """Take the state from a file :meth:`save_state` wrote: each quantity's texels as they
+        were stored and the steps done, so the run goes on as the one that saved it would. A
+        file of another scene, count or format, or not a state file, is one line saying so."""
+        import json
+        import zipfile
+
+        where = f"--load-state {str(path)!r}"
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {k: data[k] for k in data.files}
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+            raise ParameterError(f"{where} is not a state file ({error})") from None
+        if "meta" not in arrays:
+            raise ParameterError(f"{where} holds no run's state (no 'meta': write one with "
+                                 "--save-state)")
+        try:
+            meta = json.loads(str(arrays["meta"]))
+        except ValueError:
+            raise ParameterError(f"{where}: its 'meta' is not JSON") from None
+        want = {"scene": self.scene.name, "particles": self.sim.count, "format": self.sim.fmt}
+        differ = [f"{k} {meta.get(k)!r} (this run: {v!r})" for k, v in want.items()
+                  if meta.get(k) != v]
+        if differ:
+            raise ParameterError(f"{where} is the state of another run: {'; '.join(differ)}")
+        for name, buffer in self.sim.buffers.items():
+            parts = [arrays.get(f"texels.{name}.{part}") for part in range(buffer.parts)]
+            shape = (self.sim.count, 4)
+            if any(p is None or p.shape != shape or p.dtype != buffer.read_texels().dtype
+                   for p in parts):
+                raise ParameterError(f"{where} lacks quantity {name!r} as this run stores it "
+                                     f"({buffer.parts} part(s) of {shape} {buffer.fmt})")
+            buffer.write_texels(np.stack(parts, axis=1))
+        steps = meta.get("steps_done")
+        if not isinstance(steps, int) or steps < 0:
+            raise ParameterError(f"{where}: steps_done must be a whole number, got {steps!r}")
+        self.sim.steps_done = steps
+
     def describe(self):
         """The printable plan of a frame: simulation passes, render and post stages, the memory
         of each texture, and what was left out (with the scene's measured lines)."""

@@ -9,6 +9,7 @@ them once, against the context's limits (``plan.py``).
 from dataclasses import dataclass, fields
 
 from ..errors import CapabilityError, ParameterError, check_range
+from ..params import Param
 from .state import FORMATS
 
 ROUNDINGS = ("nearest", "dither")
@@ -120,6 +121,45 @@ def check_rounding(rounding):
 # Settings every frame uses; a rendering declares the others it uses (``Rendering.settings``).
 COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed")
 MAX_SIZE = 2 ** 16  # no context's textures are wider: the bound of a check made before one
+MAX_ACCUMULATE = 10 ** 6
+# Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
+# with exit 0 (--intensity 1e39 did that).
+MAX_INTENSITY = 1e6
+
+
+def _setting(name, default, lo=None, hi=None, **kwargs):
+    return Param(default, lo, hi, name=name, **kwargs)
+
+
+# The frame settings declared once: the command line's options and help, a run file's values.
+# A default of None is the scene's (its Defaults); bloom is declared by its parts.
+SETTINGS = {d.name: d for d in (
+    _setting("particles", None, 1, None, integer=True, help="particle count"),
+    _setting("size", "1024x1024", text=True, metavar="WxH", help="image size in pixels"),
+    _setting("format", "rgba8", choices=("rgba8", "rgba16f", "rgba32f", "auto"),
+             help="state storage format (rgba8: 16-bit packed; auto: the most precise one the "
+                  "context can render to)"),
+    _setting("rounding", None, choices=ROUNDINGS,
+             help="rounding of packed state on write (dither: stochastic, unbiased)"),
+    _setting("steps", None, 0, MAX_STEPS, integer=True,
+             help="simulation steps before the (first) frame"),
+    _setting("seed", 0, 0, 2 ** 63 - 1, integer=True, help="seed of the starting state"),
+    _setting("point_size", None, 0.0, None, unit="pixels",
+             help="point or sprite diameter (a sprite's at the camera distance where its "
+                  "attenuation is 1, in an image 1024 high)"),
+    _setting("intensity", 1.0, 0.0, MAX_INTENSITY, help="density each particle adds"),
+    _setting("exposure", 4.0, 1e-3, 1e3, help="tone curve brightness"),
+    _setting("gradient", "inferno", text=True, metavar="RAMP",
+             help="gradient map: a ramp name (inferno, ice, viridis, gold, grey), colours "
+                  "'#000,#f80,#fff', a PNG path, or 'none' (grey)"),
+    _setting("accumulate", 1, 1, MAX_ACCUMULATE, integer=True,
+             help="samples summed into each image: this step's density and the next K-1 "
+                  "steps' (reseeded attractors shift their grid for each); 1/sqrt(K) the noise"),
+    _setting("bloom_threshold", 0.2, 0.0, 1.0, help="bloom luminance threshold"),
+    _setting("bloom_radius", 3.0, 0.5, 4.0, help="bloom blur sigma, texels of the half level"),
+    _setting("bloom_intensity", 0.8, 0.0, 10.0, help="bloom strength"),
+)}
+BLOOM_PARTS = ("bloom_threshold", "bloom_radius", "bloom_intensity")
 
 
 def check_settings(settings, scene, rendering=None):
@@ -138,15 +178,15 @@ def check_settings(settings, scene, rendering=None):
                              f"{'this setting' if len(unused) == 1 else 'these settings'} "
                              f"({rendering.kind})")
     given = {name: getattr(settings, name) for name in settings.given()}
-    checks = {"size": lambda v: parse_size(v, MAX_SIZE),
-              "particles": lambda v: check_range("particles", v, 1, None, integer=True),
-              "steps": lambda v: check_range("steps", v, 0, MAX_STEPS, integer=True),
-              "seed": lambda v: check_range("seed", v, 0, 2 ** 63 - 1, integer=True),
-              "format": lambda v: v == "auto" or v in FORMATS or resolve_format(None, v),
-              "rounding": check_rounding,
-              "point_size": lambda v: check_range("point_size", v, 0.0, None)}
     for name, value in given.items():
-        if name in checks:
-            checks[name](value)
+        if name == "size":
+            parse_size(value, MAX_SIZE)
+        elif name in SETTINGS and not SETTINGS[name].text:
+            SETTINGS[name].convert(value, name)
     rendering.check_settings({n: v for n, v in given.items() if n in rendering.settings})
     check_range("share", settings.share, 0, 2 ** 40, integer=True)
+
+
+def setting(name, value):
+    """``value`` of setting ``name`` checked against its declaration (kind and range)."""
+    return SETTINGS[name].convert(value, name)

@@ -12,14 +12,21 @@ from ..errors import ParameterError
 MAX_PIXELS = 2 ** 26  # 8192 x 8192: far more than a ramp, a mask or a sprite needs
 
 
-def read_image(path, parameter, mode="RGBA", max_pixels=MAX_PIXELS):
-    """The image at ``path`` converted to ``mode`` (None: as it is), fully read."""
-    from PIL import Image
-
+def check_input(path, parameter):
+    """``path`` as a Path if it is a plain file to read, else one line naming ``parameter``
+    (a folder or a FIFO is not waited on)."""
     file = Path(path)
     if not file.is_file():
         what = "does not exist" if not file.exists() else "is not a plain file"
         raise ParameterError(f"{parameter}: {str(path)!r} {what}")
+    return file
+
+
+def read_image(path, parameter, mode="RGBA", max_pixels=MAX_PIXELS):
+    """The image at ``path`` converted to ``mode`` (None: as it is), fully read."""
+    from PIL import Image
+
+    file = check_input(path, parameter)
     try:
         with Image.open(file) as image:
             w, h = image.size

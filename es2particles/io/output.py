@@ -255,10 +255,10 @@ def save_animation(frames, path, fps=30):
         return writer.close()
 
 
-def save_state(arrays, path):
-    """Write named float64 arrays (world units) to an .npz file."""
+def save_arrays(arrays, path):
+    """Write named arrays to an .npz file, atomically."""
     def write(tmp):
         with open(tmp, "wb") as handle:
-            np.savez(handle, **{k: np.asarray(v, dtype=np.float64) for k, v in arrays.items()})
+            np.savez(handle, **{k: np.asarray(v) for k, v in arrays.items()})
 
     return write_atomic(path, write)

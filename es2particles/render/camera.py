@@ -114,10 +114,12 @@ class Camera:
         return pixels, distance, visible
 
 
-def orbit(frame, frames, radius=6.0, height=2.5, target=(0.0, 1.0, 0.0), fov=45.0, turns=1.0):
+def orbit(frame, frames, radius=6.0, height=2.5, target=(0.0, 1.0, 0.0), fov=45.0, turns=1.0,
+          phase=0.0):
     """The camera of frame ``frame`` of ``frames`` on a circle of ``radius`` around ``target``
-    at ``height``: ``turns`` full turns over the animation, starting on +z."""
-    angle = 2 * np.pi * turns * (frame / max(frames, 1))
+    at ``height``: ``turns`` full turns over the animation, starting ``phase`` radians from +z
+    towards +x."""
+    angle = phase + 2 * np.pi * turns * (frame / max(frames, 1))
     eye = (target[0] + radius * np.sin(angle), height, target[2] + radius * np.cos(angle))
     return Camera(eye=eye, target=target, fov=fov)
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 from ..errors import CapabilityError, ParameterError, check_range
 from ..frame.plan import Ref, Rendering, Resource, Stage
+from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 
@@ -27,10 +28,6 @@ ACCUMULATION_FORMATS = ("r32f", "rgba32f", "rgba16f", "rgba8")
 # the cache, smaller ones pay more thread wake-ups). The picture is bit-identical. On a GPU the
 # draw is one call.
 SOFTWARE_DRAW_SLICE = 2 ** 14
-MAX_ACCUMULATE = 10 ** 6
-# Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
-# with exit 0 (--intensity 1e39 did that).
-MAX_INTENSITY = 1e6
 
 
 def point_uniforms(view, point_size, size):
@@ -40,10 +37,6 @@ def point_uniforms(view, point_size, size):
     x0, y0, x1, y1 = (float(v) for v in view)
     return {"u_view": (x0, y0, x1 - x0, y1 - y0), "u_point_size": float(point_size),
             "u_target_size": (float(size[0]), float(size[1]))}
-
-
-def _not_bloom(value):
-    raise ParameterError(f"bloom must be a Bloom or None, got {type(value).__name__}")
 
 
 def choose_accumulation(caps):
@@ -97,15 +90,12 @@ class Density(Rendering):
         from .post import Bloom
         from .ramps import load_ramp
 
-        checks = {"intensity": lambda v: check_range("intensity", v, 0, MAX_INTENSITY),
-                  "exposure": lambda v: check_range("exposure", v, 1e-3, 1e3),
-                  "accumulate": lambda v: check_range("accumulate", v, 1, MAX_ACCUMULATE,
-                                                      integer=True),
-                  "gradient": lambda v: v is None or load_ramp(v),
-                  "bloom": lambda v: v is None or isinstance(v, Bloom) or _not_bloom(v)}
         for name, value in given.items():
-            if name in checks:
-                checks[name](value)
+            if name == "gradient" and value is not None:
+                load_ramp(value)
+            elif name == "bloom" and not (value is None or isinstance(value, Bloom)):
+                raise ParameterError(f"bloom must be a Bloom or None, got "
+                                     f"{type(value).__name__}")
 
     def plan(self, b, defaults):
         """Add the points stage (accumulated over the run's samples) and the post chain to plan
@@ -119,9 +109,8 @@ class Density(Rendering):
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
                                  lo, hi)
-        intensity = check_range("intensity", b.setting("intensity", 1.0), 0, MAX_INTENSITY)
-        b.accumulate = int(check_range("accumulate", b.setting("accumulate", 1), 1,
-                                       MAX_ACCUMULATE, integer=True))
+        intensity = setting("intensity", b.setting("intensity", 1.0))
+        b.accumulate = setting("accumulate", b.setting("accumulate", 1))
         fmt, note = choose_accumulation(caps)
         # An 8-bit target saturates at 1: count in steps of 1/255 there.
         scale = 1.0 if fmt != "rgba8" else 1.0 / 255.0

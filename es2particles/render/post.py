@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import check_range
 from ..frame.plan import Ref, Resource, Stage
+from ..frame.settings import SETTINGS, setting
 from .ramps import load_ramp
 
 
@@ -27,10 +27,10 @@ class Bloom:
     radius: float = 3.0
     intensity: float = 0.8
 
-    def __post_init__(self):
-        check_range("bloom threshold", self.threshold, 0, 1)
-        check_range("bloom radius", self.radius, 0.5, 4)  # 12 taps in blur.frag cover 3 sigma
-        check_range("bloom intensity", self.intensity, 0, 10)
+    def __post_init__(self):  # radius at most 4: the 12 taps of blur.frag cover 3 sigma
+        for part in ("threshold", "radius", "intensity"):
+            object.__setattr__(self, part, SETTINGS[f"bloom_{part}"].convert(
+                getattr(self, part), f"bloom {part}"))
 
 
 def blur_taps(sigma, taps=12):
@@ -55,7 +55,7 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom
     ``background`` image of the scene's objects where one is given), then bloom's bright, blur x
     and blur y at 1/2 and 1/4 size and its composite (where ``bloom`` is not None). Returns the
     name of the last stage's target: the picture."""
-    exposure = check_range("exposure", exposure, 1e-3, 1e3)
+    exposure = setting("exposure", exposure)
     w, h = b.resources[source].size
     ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
     defines, inputs = {}, {"u_density": Ref(source)}

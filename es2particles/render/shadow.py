@@ -133,27 +133,31 @@ def map_uniforms(settings, fmt, opacity):
             "u_shadow_opacity": float(opacity * unit)}
 
 
-def plan_shadow(b, settings, quantities, size_spread, growth, opacity, per_focal):
-    """Add the opacity shadow map of ``settings`` to plan builder ``b``: its target and the pass
-    that draws every particle into it, seen from the light as a sprite of its world size (the
-    image's sprites' size ``per_focal`` pixels at distance 1 over the camera's focal length),
-    adding its ``opacity`` to the channel of its layer. Returns (the uniforms of
-    ``lib/shadow.glsl`` for any program that includes it, the light's focal length in pixels)."""
+def plan_shadow(b, sprites, per_focal):
+    """Add the opacity shadow map of ``sprites.shadow`` (a :class:`~es2particles.render.sprites.
+    Sprites`'s) to plan builder ``b``: its target and the pass that draws every particle into
+    it, seen from the light as a sprite of its world size (the image's sprites' size
+    ``per_focal`` pixels at distance 1 over the camera's focal length), adding its opacity to
+    the channel of its layer. Returns (the uniforms of ``lib/shadow.glsl`` for any program that
+    includes it, the light's focal length in pixels)."""
+    settings, growth, size_spread = sprites.shadow, sprites.growth, sprites.size_spread
     fmt, note = choose_format(b.caps, settings.format)
     focal = settings.camera().focal_pixels(settings.size)
-    uniforms = map_uniforms(settings, fmt, opacity)
+    uniforms = map_uniforms(settings, fmt, sprites.opacity)
     b.resource(Resource("shadow map", "target", (settings.size, settings.size), fmt,
                         what=f"opacity shadow map: {LAYERS} layers of {settings.layer_depth():.3g} "
                              f"m from the light at {tuple(round(v, 3) for v in settings.light)}, "
                              f"{note}"))
+    quantities = {name: q for name, q in sprites.role_quantities(b.graph_plan).items()
+                  if name in ("position", "life")}
     interface = stage_interface(tuple(quantities), quantities, b.format, {})
     own = dict(uniforms)
     if growth != 1:
         own["u_growth"] = float(growth)
     b.stage(Stage(
         "shadow map", "shadow map", "sprites/shadow.frag", "sprites/shadow.vert",
-        {} if growth == 1 else {"GROWTH": None}, vertex_interface=interface,
-        inputs={**b.state_inputs(interface), "u_sprite": Ref("sprite")},
+        {"FADE": None, **({} if growth == 1 else {"GROWTH": None})}, vertex_interface=interface,
+        inputs={**sprites.role_inputs(interface), "u_sprite": Ref("sprite")},
         target=Ref("shadow map"), vertices=b.particle_texels(), primitive="points",
         count=b.layout.count, state=DrawState(blend="add", point_size=True, sprites=True),
         uniforms=own, generated=generated_values(interface, b.layout),

@@ -10,7 +10,7 @@ particle behind the cube is hidden and particles never hide each other. Sorting 
 (``sort.py``) and an opacity shadow map (``shadow.py``) are stages of the same plan.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,6 +21,9 @@ from ..gl.device import DrawState
 from .meshes import plan_meshes
 
 BLENDS = ("add", "over")
+# The renderer's inputs: role -> (the name its shader reads it by, components, define).
+ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
+         "size": ("size", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR")}
 
 
 # --- sprite textures --------------------------------------------------------------------------
@@ -113,6 +116,12 @@ class Sprites(Rendering):
     growth : float
         A sprite's size at the end of its life, relative to its birth (smoke puffs spread).
     meshes : tuple of meshes.Mesh
+    roles : mapping
+        The renderer's inputs, role -> the scene's quantity that plays it: ``position`` (3
+        components, required); ``fade`` (a life clock, (age, lifetime): alpha falls with age,
+        unborn and dead particles are not drawn; without it every particle is drawn whole);
+        ``size`` (1 component, a factor of the sprite's size); ``colour`` (3 components, the
+        particle's tint in place of ``tint``'s colour). Default: position and fade by ``life``.
     """
 
     sprite: object = "fireball"
@@ -128,8 +137,8 @@ class Sprites(Rendering):
     shadow: object = None
     growth: float = 1.0
     meshes: tuple = ()
+    roles: object = None
 
-    reads = ("position", "life")
     settings = ("point_size",)
     has_camera = True
     kind = "it draws 3D sprites: no tone map, gradient map, bloom or accumulation"
@@ -149,6 +158,42 @@ class Sprites(Rendering):
         if self.sort is not None and self.sort != "full":
             check_range("sort (merge passes per frame)", self.sort, 1, 10 ** 6, integer=True)
         object.__setattr__(self, "meshes", tuple(self.meshes))
+        roles = {"position": "position", "fade": "life"} if self.roles is None \
+            else dict(self.roles)
+        unknown = [r for r in roles if r not in ROLES]
+        if unknown or "position" not in roles:
+            raise ParameterError(f"sprite roles are {', '.join(ROLES)} (position required), "
+                                 f"got {', '.join(roles)}")
+        if self.shadow is not None and "fade" not in roles:
+            raise ParameterError("shadow needs a fade role: the map's pass reads each "
+                                 "particle's life")
+        object.__setattr__(self, "roles", roles)
+
+    @property
+    def reads(self):
+        """The quantities the sprites read, the roles' players."""
+        return tuple(dict.fromkeys(self.roles.values()))
+
+    def role_quantities(self, graph_plan):
+        """Each role's quantity under the name its shader reads it by (its texture is the
+        scene's quantity's), checked for its components: name -> Quantity."""
+        out = {}
+        for role, quantity in self.roles.items():
+            name, components, _ = ROLES[role]
+            q = graph_plan.quantities[quantity]
+            if q.components not in components:
+                raise ParameterError(f"the sprites' {role} role takes a quantity of "
+                                     f"{' or '.join(map(str, components))} components; "
+                                     f"{quantity!r} has {q.components}")
+            out[name] = replace(q, name=name)
+        return out
+
+    def role_inputs(self, interface):
+        """The :class:`Ref` of each sampler of an interface written for :meth:`role_quantities`:
+        the scene's quantity behind the role."""
+        player = {ROLES[role][0]: quantity for role, quantity in self.roles.items()}
+        return {sampler: Ref(player[q], part) for sampler, (_, q, part, _) in
+                interface.samplers.items()}
 
     def plan(self, b, defaults):
         """Add the sort, shadow map, mesh and sprite stages to plan builder ``b``; the image is
@@ -157,10 +202,7 @@ class Sprites(Rendering):
         from .sort import plan_sort
 
         caps, layout, fmt = b.caps, b.layout, b.format
-        quantities = {q: b.graph_plan.quantities[q] for q in self.reads}
-        if quantities["position"].components != 3:
-            raise ParameterError(f"the sprites read position of 3 components, got "
-                                 f"{quantities['position'].components}")
+        quantities = self.role_quantities(b.graph_plan)
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
                                  0.0, 1e4)
@@ -187,6 +229,7 @@ class Sprites(Rendering):
         b.resource(Resource("sprite", "image", (w, h), "rgba8", linear=True, data=texture,
                             what="the sprite texture"))
         defines = {} if self.growth == 1 else {"GROWTH": None}
+        defines.update({ROLES[role][2]: None for role in self.roles if ROLES[role][2]})
         inputs = {"u_sprite": Ref("sprite")}
         uniforms = {"u_attenuation": (a, b_, c), "u_fade": float(fade),
                     "u_opacity": float(self.opacity),
@@ -198,7 +241,7 @@ class Sprites(Rendering):
         vertices = None
         order = "texel order"
         if self.sort is not None:
-            network = plan_sort(b, quantities["position"],
+            network = plan_sort(b, b.graph_plan.quantities[self.roles["position"]],
                                 None if self.sort == "full" else int(self.sort))
             defines.update(network.defines(), SORTED=None)
             inputs["u_order"] = Ref("order")
@@ -210,9 +253,7 @@ class Sprites(Rendering):
             b.left_out.append("depth sort (switched off: texel order)")
         if self.shadow is not None:
             per_focal = pixel_size / np.sqrt(c)
-            shadow_uniforms, light_focal = plan_shadow(b, self.shadow, quantities,
-                                                       self.size_spread, self.growth,
-                                                       self.opacity, per_focal)
+            shadow_uniforms, light_focal = plan_shadow(b, self, per_focal)
             defines["SHADOWED"] = None
             inputs.update(u_shadow_map=Ref("shadow map"), u_shadow_sprite=Ref("sprite"))
             uniforms.update(shadow_uniforms)
@@ -229,12 +270,12 @@ class Sprites(Rendering):
         plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
-            vertex_interface=interface, inputs={**b.state_inputs(interface), **inputs},
+            vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},
             target=Ref("image"), vertices=vertices, primitive="points", count=layout.count,
             state=DrawState(blend=self.blend, depth_test=True, depth_write=False,
                             point_size=True, sprites=True),
             uniforms=uniforms, generated=generated_values(interface, layout),
             frame_uniforms=frame, clear=None if self.meshes else (*background, 1.0),
             what=f"{layout.count} point sprites in {order}, vertex texture fetch of "
-                 f"{' and '.join(quantities)}"))
+                 f"{', '.join(self.reads)}"))
         return "image"

@@ -14,7 +14,7 @@ import numpy as np
 from ..fields.field2d import CollisionField
 from ..frame.pipeline import Pipeline
 from ..render.post import Bloom
-from ..scenes.collision import RECT, Collision, Physics
+from ..scenes.collision import RECT, Collision, CollisionParams
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 from ..frame.simulation import Simulation
 from ..twins.particle import step_reference
@@ -97,23 +97,23 @@ def collision_dt_row(ctx, fmt, rounding, k, horizon, count=256, drag=0.5):
     set the error whatever dt is)."""
     dt = 2.0 ** -k
     # No emission: the lifetime is unused, but must fit the life clock at the smallest dt
-    physics = Physics(emit=False, dt=dt, drag=drag, gravity=(0.0, -1.0),
+    params = CollisionParams(emit=False, dt=dt, drag=drag, gravity=(0.0, -1.0),
                       lifetime=(horizon, horizon))
-    scene = Collision(physics=physics, field=CollisionField(RECT, [], resolution=(8, 8)))
+    scene = Collision(params, field=CollisionField(RECT, [], resolution=(8, 8)))
     x0, v0 = smooth_start(count, np.random.default_rng(k))
     steps = int(round(horizon / dt))
     with Simulation(ctx, scene.graph(), count, fmt=fmt, rounding=rounding) as sim:
         scene.initialise(sim, np.random.default_rng(0))
         sim.upload("position", x0)
         sim.upload("velocity", v0)
-        sim.upload("life", np.stack([np.zeros(count), np.full(count, physics.max_age)], 1))
+        sim.upload("life", np.stack([np.zeros(count), np.full(count, params.max_age)], 1))
         x0, v0 = sim.download("position"), sim.download("velocity")  # the decoded start
         start = time.perf_counter()
         sim.run(steps)
         ctx.finish()
         elapsed = time.perf_counter() - start
         x = sim.download("position")
-    exact = projectile(x0, v0, steps * dt, physics.gravity, drag)
+    exact = projectile(x0, v0, steps * dt, params.gravity, drag)
     return {"format": sim.format_note, "rounding": rounding, "k": k, "dt": dt,
             "error": float(np.abs(x - exact).max()), "run_s": elapsed}
 
@@ -123,19 +123,19 @@ def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
     short horizon (against the float64 twin at the same dt, so only the format and float32
     arithmetic differ), deepest penetration, and energy drift (r = 1, s = 1, no drag, no
     emitter: the response keeps the speed, so any drift is the integrator's and the format's)."""
-    physics = Physics(emit=False, drag=0.0, bounce=1.0, sliding=1.0)
-    scene = Collision("circle+box+capsule", physics)
+    params = CollisionParams(emit=False, drag=0.0, bounce=1.0, sliding=1.0)
+    scene = Collision(params.changed(shape="circle+box+capsule"))
     rng = np.random.default_rng(count)
     x = rng.uniform(-0.95, 0.95, (4 * count, 2))
     x = x[scene.field.exact_distance(x) > 0.02][:count]
     v = rng.uniform(-2, 2, (count, 2))
-    life = np.stack([np.zeros(count), np.full(count, physics.max_age)], 1)
+    life = np.stack([np.zeros(count), np.full(count, params.max_age)], 1)
     with Pipeline(ctx, scene, count, (512, 512), fmt=fmt, bloom=Bloom(), rounding=rounding) as p:
         sim = p.sim
         for name, values in (("position", x), ("velocity", v), ("life", life)):
             sim.upload(name, values)
         x, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
-        energy0 = 0.5 * np.sum(v * v, 1) - physics.gravity[1] * x[:, 1]
+        energy0 = 0.5 * np.sum(v * v, 1) - params.gravity[1] * x[:, 1]
         step = median_time(sim.step, ctx.finish)
         frame = median_time(lambda: (sim.step(), p.render()), ctx.finish)
         for name, values in (("position", x), ("velocity", v), ("life", life)):
@@ -148,8 +148,8 @@ def collision_row(ctx, fmt, count, rounding, horizon_steps=15):
         note = sim.format_note
     xr, vr, lr = x, v, life
     for _ in range(horizon_steps):
-        xr, vr, lr = step_reference(xr, vr, lr, scene.field, physics)
-    energy = 0.5 * np.sum(vg * vg, 1) - physics.gravity[1] * xg[:, 1]
+        xr, vr, lr = step_reference(xr, vr, lr, scene.field, params)
+    energy = 0.5 * np.sum(vg * vg, 1) - params.gravity[1] * xg[:, 1]
     return {"scene": "collision", "format": note, "rounding": rounding, "N": count,
             "step_s": step, "frame_s": frame,
             "median_error": float(np.median(np.abs(xg - xr).max(axis=1))),

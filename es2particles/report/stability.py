@@ -10,7 +10,7 @@ import numpy as np
 
 from ..fields.field2d import Box, Capsule, Circle, CollisionField
 from ..frame.graph import PassGraph
-from ..scenes.collision import RECT, Collision, Physics
+from ..scenes.collision import RECT, Collision, CollisionParams
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 from ..frame.simulation import Simulation
 from .measure import density_distance
@@ -32,7 +32,7 @@ class Case:
 def free_scene(**changes):
     """A collision scene with no objects and no emitter: gravity and drag off unless given."""
     settings = {"emit": False, "gravity": (0.0, 0.0), "drag": 0.0, **changes}
-    return Collision(physics=Physics(**settings), field=_empty_field())
+    return Collision(CollisionParams(**settings), field=_empty_field())
 
 
 @lru_cache(maxsize=1)
@@ -49,7 +49,7 @@ def run_particles(ctx, scene, x, v, steps, fmt="rgba8", rounding="nearest"):
         scene.initialise(sim, np.random.default_rng(0))
         sim.upload("position", x)
         sim.upload("velocity", v)
-        sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.physics.max_age)], 1))
+        sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.params.max_age)], 1))
         for _ in range(steps):
             sim.step()
             out.append((sim.download("position"), sim.download("velocity")))
@@ -84,7 +84,7 @@ def stiff_spring(ctx, omega_dt, steps=120):
 def thin_wall(ctx):
     cell = 2 / 256
     field = CollisionField(RECT, [Box((0.0, 0.0), (0.75 * cell, 1.0))], resolution=(256, 256))
-    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=0.05,
+    scene = Collision(CollisionParams(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=0.05,
                                       bounce=1.0), field=field)
     rng = np.random.default_rng(4)
     n = 4096
@@ -96,7 +96,7 @@ def thin_wall(ctx):
 
 
 def range_limits(ctx):
-    scene = Collision(physics=Physics(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
+    scene = Collision(CollisionParams(emit=False, gravity=(0.0, -50.0), drag=0.0, max_speed=2.0,
                                       speed=(0.5, 1.0)), field=free_scene().field)
     x = np.array([[1.0, 1.0], [0.5, 0.9], [-1.0, 1.0]])
     v = np.array([[0.0, 0.0], [5.0, 0.0], [0.0, 0.0]])
@@ -117,7 +117,7 @@ def range_limits(ctx):
 
 
 def non_finite(ctx, fmt):
-    scene = Collision("circle", Physics(lifetime=(1.0, 2.0)))
+    scene = Collision(lifetime=(1.0, 2.0))
     with Simulation(ctx, scene.graph(), 1024, fmt=fmt) as sim:
         scene.initialise(sim, np.random.default_rng(1))
         sim.run(30)
@@ -134,7 +134,7 @@ def non_finite(ctx, fmt):
 
 
 def dejong_extreme(ctx, coefficients):
-    scene = DeJong(coefficients)
+    scene = DeJong(coefficients=coefficients)
     with Simulation(ctx, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(2))
         start = sim.download("position")
@@ -253,7 +253,7 @@ def dither_at_rest(ctx, steps=2000, count=4096):
 
 def _crossings(ctx, field, speed, dt, steps, fmt="rgba8", seed=4, gravity=(0.0, 0.0)):
     """Particles sent at a vertical wall at x = 0 from the left: how many end right of it."""
-    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=gravity, dt=dt, bounce=1.0),
+    scene = Collision(CollisionParams(emit=False, drag=0.0, gravity=gravity, dt=dt, bounce=1.0),
                       field=field)
     rng = np.random.default_rng(seed)
     n = 4096
@@ -297,7 +297,7 @@ def _crossed_line(ctx, field, t, speed=2.0, dt=1 / 60, steps=60, seed=5):
     """Particles start on the left of the line through 0 at angle t from the vertical (normal
     (cos t, -sin t)); how many end on its right."""
     normal = np.array([np.cos(t), -np.sin(t)])
-    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=dt, bounce=1.0),
+    scene = Collision(CollisionParams(emit=False, drag=0.0, gravity=(0.0, 0.0), dt=dt, bounce=1.0),
                       field=field)
     rng = np.random.default_rng(seed)
     x = rng.uniform(-0.9, 0.9, (3 * 4096, 2))
@@ -348,7 +348,7 @@ def symmetric_drop(ctx):
     2 s: a head-on hit has no side to slide to, so none may move sideways. Max |x drift| per
     format (rgba8 / rgba16f / rgba32f)."""
     field = CollisionField(RECT, [Box((0.5, -0.5), (0.3, 0.2))], resolution=(256, 256))
-    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, -3.0)), field=field)
+    scene = Collision(CollisionParams(emit=False, drag=0.0, gravity=(0.0, -3.0)), field=field)
     xs = np.linspace(-0.9, 0.75, 1024)
     xs = xs[np.abs(np.abs(xs - 0.5) - 0.3) > 2 * field.cell]  # clear of the box's corners by 2 cells
     n = len(xs)
@@ -371,7 +371,7 @@ def resting_creep(ctx):
     """Particles resting on a box top: how far they creep between 1 s and 20 s (a tilted
     normal, 8-bit normals that could not hold 0, made them slide)."""
     field = CollisionField(RECT, [Box((0.0, -0.5), (0.5, 0.2))], resolution=(256, 256))
-    scene = Collision(physics=Physics(emit=False, drag=0.05, gravity=(0.0, -3.0)), field=field)
+    scene = Collision(CollisionParams(emit=False, drag=0.05, gravity=(0.0, -3.0)), field=field)
     n = 512
     x = np.stack([np.linspace(-0.4, 0.4, n), np.full(n, -0.25)], 1)
     history = run_particles(ctx, scene, x, np.zeros((n, 2)), 1200, rounding="dither")
@@ -395,7 +395,7 @@ def clocks(ctx):
                 n = 64
                 with Simulation(ctx, scene.graph(), n, fmt=fmt, rounding=rounding) as sim:
                     scene.initialise(sim, np.random.default_rng(0))
-                    sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.physics.max_age)], 1))
+                    sim.upload("life", np.stack([np.zeros(n), np.full(n, scene.params.max_age)], 1))
                     sim.run(steps)
                     age = sim.download("life")[:, 0]
                 rows.append((dt, fmt, rounding, float(np.abs(age / (steps * dt) - 1).max())))
@@ -412,9 +412,9 @@ def covered_emitter(ctx):
     """An emitter inside an object (a circle of radius 0.3 around it): a new particle must be
     outside the object after the step that emits it. Max depth of live particles over 60 steps,
     in field cells (the field can place a surface to within a cell)."""
-    physics = Physics(emitter=(0.0, -0.5), lifetime=(0.5, 1.0))
+    params = CollisionParams(emitter=(0.0, -0.5), lifetime=(0.5, 1.0))
     field = CollisionField(RECT, [Circle((0.0, -0.5), 0.3)], resolution=(256, 256))
-    scene = Collision(physics=physics, field=field)
+    scene = Collision(params, field=field)
     deepest = 0.0
     with Simulation(ctx, scene.graph(), 4096) as sim:
         scene.initialise(sim, np.random.default_rng(2))
@@ -435,7 +435,7 @@ def coefficient_sizes(ctx, sizes=(1.0, 10.0, 100.0, 1e4)):
     costs; within a code up to |k| = 10."""
     rows = []
     for k in sizes:
-        scene = DeJong((k, -k, k, -k), iterations=1)
+        scene = DeJong(coefficients=(k, -k, k, -k), iterations=1)
         with Simulation(ctx, scene.graph(), 2 ** 14) as sim:
             scene.initialise(sim, np.random.default_rng(0))
             start = sim.download("position")
@@ -477,7 +477,7 @@ def contact_energy(ctx, steps=600):
     field = CollisionField(RECT, [Circle((-0.4, -0.4), 0.3), Box((0.5, -0.6), (0.3, 0.2))],
                            resolution=(256, 256))
     g = 3.0
-    scene = Collision(physics=Physics(emit=False, drag=0.0, gravity=(0.0, -g), bounce=0.6),
+    scene = Collision(CollisionParams(emit=False, drag=0.0, gravity=(0.0, -g), bounce=0.6),
                       field=field)
     n = 2048
     rng = np.random.default_rng(0)
@@ -492,7 +492,7 @@ def contact_energy(ctx, steps=600):
         speed = np.array([np.hypot(*v.T) for _, v in history])
         gain = float(np.diff(energy, axis=0).max())
         if fmt == "rgba8":
-            code_v, code_x = 2 * scene.physics.max_speed / 65024, 2 / 65024
+            code_v, code_x = 2 * scene.params.max_speed / 65024, 2 / 65024
             bound = float(speed.max() * np.sqrt(2) * code_v + code_v ** 2 + g * code_x)
         else:
             bound = 1e-6

@@ -12,24 +12,74 @@ spread over the position range, so only the coefficients carry time). No velocit
 the plan is one pass and one quantity.
 """
 
-import argparse
+import sys
+from dataclasses import dataclass, make_dataclass
 
 import numpy as np
 
-from ..errors import check_range
+from ..errors import ParameterError
 from ..frame.graph import PassGraph
-from .base import Control, Defaults, Fill, Scene
+from .base import Defaults, Fill, Scene
+from ..params import Params, param
 
 COEFFICIENT_LIMIT = 1e4
 CONTROL_LIMIT = 4.0  # the page's sliders: -4 .. 4
 MARGIN = 0.05  # of the range's size, each side of the picture
+ACCURACY = "one step's float32 error: 0.5 code at |k| 1, 0.7 at 100, 30 at 1e4"
+
+
+def coefficient(k, default):
+    # The article's coefficients lie within +-3; the page keeps the exported position range, so
+    # a member whose box grows with its coefficients (Clifford) clamps beyond it.
+    return param(default, -COEFFICIENT_LIMIT, COEFFICIENT_LIMIT,
+                 help=f"coefficient {'abcd'[k]} ({ACCURACY})",
+                 slider=("u_coefficients", k, -CONTROL_LIMIT, CONTROL_LIMIT))
+
+
+@dataclass(frozen=True)
+class AttractorParams(Params):
+    """An attractor's parameters; a member's own class sets the coefficients' defaults
+    (:meth:`with_coefficients`)."""
+
+    a: float = coefficient(0, 0.0)
+    b: float = coefficient(1, 0.0)
+    c: float = coefficient(2, 0.0)
+    d: float = coefficient(3, 0.0)
+    iterations: int = param(3, 1, 64, integer=True,
+                            help="map iterations inside one pass (the article's 3)")
+    reseed: bool = param(False, flag=True,
+                         help="restart every frame from the texel grid (the article's mode)")
+    animate_to: tuple = param(None, -COEFFICIENT_LIMIT, COEFFICIENT_LIMIT, count=4,
+                              optional=True, metavar="A,B,C,D",
+                              help="with --frames: move the coefficients to these over the "
+                                   "frames")
+
+    @classmethod
+    def with_coefficients(cls, name, values):
+        """The Params class of a member whose coefficients default to ``values``."""
+        declared = [(n, float, coefficient(k, float(v))) for k, (n, v) in
+                    enumerate(zip("abcd", values))]
+        made = make_dataclass(name, declared, bases=(cls,), frozen=True)
+        made.__module__ = sys._getframe(1).f_globals["__name__"]  # pickles by its module's name
+        return made
+
+    @property
+    def coefficients(self):
+        return (self.a, self.b, self.c, self.d)
 
 
 class Attractor(Scene):
-    """An iterated 2D map with coefficients (a, b, c, d), optionally animated to ``animate_to``."""
+    """An iterated 2D map with coefficients (a, b, c, d), optionally animated to ``animate_to``.
+    ``coefficients`` sets a, b, c and d at once."""
 
     shader = ""  # the member's GLSL map
-    coefficients_default = (0.0, 0.0, 0.0, 0.0)
+    Params = AttractorParams
+    # Stateful runs iterate a chaotic map on the 16-bit grid, where nearest rounding falls into
+    # short cycles (measured for de Jong: 47% distinct positions after 2000 steps of 2^18
+    # particles, density distance 0.076 against a 0.053 noise floor); dithered rounding stays at
+    # the floor (99.9% distinct, 0.052). Reseeded frames write once: nearest is exact.
+    defaults = Defaults(steps=20, rounding="dither")
+    reseeded_defaults = Defaults(steps=1, rounding="nearest")
 
     @staticmethod
     def map(p, k):
@@ -41,12 +91,16 @@ class Attractor(Scene):
         """(x0, y0, x1, y1): a box that holds the map's image for coefficients ``k``."""
         raise NotImplementedError
 
-    def __init__(self, coefficients=None, iterations=3, reseed=False, animate_to=None):
-        given = self.coefficients_default if coefficients is None else coefficients
-        self.coefficients = _coefficients("", given)
-        self.iterations = int(check_range("iterations", iterations, 1, 64, integer=True))
-        self.reseed = bool(reseed)
-        self.animate_to = None if animate_to is None else _coefficients("animate-to ", animate_to)
+    def __init__(self, params=None, coefficients=None, **given):
+        if coefficients is not None:
+            if len(tuple(coefficients)) != 4:
+                raise ParameterError(f"coefficients must be four numbers a, b, c, d, got "
+                                     f"{tuple(coefficients)}")
+            given.update(zip("abcd", coefficients))
+        super().__init__(params, **given)
+        p = self.params
+        self.coefficients, self.iterations = p.coefficients, p.iterations
+        self.reseed, self.animate_to = p.reseed, p.animate_to
         boxes = [self.bounds(k) for k in (self.coefficients, self.animate_to) if k is not None]
         # The position range holds the map's image; the view adds a margin of 5% each side, so
         # the attractor does not touch the picture's edges.
@@ -55,31 +109,16 @@ class Attractor(Scene):
         x0, y0, x1, y1 = self.range
         mx, my = MARGIN * (x1 - x0), MARGIN * (y1 - y0)
         self.view = (x0 - mx, y0 - my, x1 + mx, y1 + my)
-        # Stateful runs iterate a chaotic map on the 16-bit grid, where nearest rounding falls
-        # into short cycles (measured for de Jong: 47% distinct positions after 2000 steps of
-        # 2^18 particles, density distance 0.076 against a 0.053 noise floor); dithered rounding
-        # stays at the floor (99.9% distinct, 0.052). Reseeded frames write once: nearest is exact.
-        self.defaults = Defaults(steps=1 if reseed else 20,
-                                 rounding="nearest" if reseed else "dither")
+        if self.reseed:
+            self.defaults = self.reseeded_defaults
         self.positions_repeat = self.stateless = self.reseed
 
     @classmethod
-    def add_arguments(cls, parser):
-        for name, value in zip("abcd", cls.coefficients_default):
-            parser.add_argument(f"--{name}", type=float, default=value,
-                                help=f"coefficient {name} (default {value}; within +-1e4: float32 "
-                                     "sin and cos of larger arguments cost accuracy, one step's "
-                                     "error is 0.5 code at |k| 1, 0.7 at 100, 30 at 1e4)")
-        parser.add_argument("--iterations", type=int, default=3,
-                            help="map iterations inside one pass (default 3, as the article)")
-        parser.add_argument("--reseed", action="store_true",
-                            help="restart every frame from the texel grid (the article's mode)")
-        parser.add_argument("--animate-to", type=_four_floats, metavar="A,B,C,D",
-                            help="with --frames: move the coefficients to these over the frames")
-
-    @classmethod
-    def from_args(cls, args):
-        return cls((args.a, args.b, args.c, args.d), args.iterations, args.reseed, args.animate_to)
+    def default_text(cls, setting):
+        text = super().default_text(setting)
+        if setting in ("steps", "rounding"):
+            text += f" ({getattr(cls.reseeded_defaults, setting)} with --reseed)"
+        return text
 
     def graph(self):
         x0, y0, x1, y1 = self.range
@@ -115,12 +154,6 @@ class Attractor(Scene):
     def frame_uniforms(self, frame, frames):
         return {"u_coefficients": self.coefficients_at(frame, frames)}
 
-    def controls(self):
-        # The article's coefficients lie within +-3; the page keeps the exported position range,
-        # so a member whose box grows with its coefficients (Clifford) clamps beyond it.
-        return [Control(name, "u_coefficients", k, -CONTROL_LIMIT, CONTROL_LIMIT)
-                for k, name in enumerate("abcd")]
-
     def iterate(self, p, iterations=None, coefficients=None):
         """numpy twin of one pass: the map ``iterations`` times, then clamped to the range (as a
         write does). float64 in, float64 out: the independent reference of the tests."""
@@ -131,7 +164,8 @@ class Attractor(Scene):
         return np.clip(p, (x0, y0), (x1, y1))
 
     def describe(self):
-        return [f"{self.name} needs no velocity or acceleration, so neither is declared: one "
+        return super().describe() + [
+                f"{self.name} needs no velocity or acceleration, so neither is declared: one "
                 "quantity (position), one pass"
                 + ("; reseeded: nothing reads last step's position, so one texture" if self.reseed
                    else "")]
@@ -144,22 +178,3 @@ def jitter(sample):
     """The grid offset (texels, in [-0.5, 0.5)^2) of accumulated sample ``sample``: the R2
     sequence (Roberts 2018), which spreads any number of samples evenly; sample 0 is (0, 0)."""
     return (0.5 + sample * R2) % 1.0 - 0.5
-
-
-def _coefficients(label, values):
-    values = tuple(values)
-    if len(values) != 4:
-        from ..errors import ParameterError
-        raise ParameterError(f"{label}coefficients must be four numbers a, b, c, d, got {values}")
-    return tuple(check_range(f"{label}{n}", v, -COEFFICIENT_LIMIT, COEFFICIENT_LIMIT)
-                 for n, v in zip("abcd", values))
-
-
-def _four_floats(text):
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 4:
-        raise argparse.ArgumentTypeError(f"expected four numbers A,B,C,D, got {text!r}")
-    return values

@@ -19,26 +19,8 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..frame.settings import Defaults
-
-
-def parse_numbers(option, text, counts):
-    """The numbers of a comma-separated command-line value, as a tuple whose length is one of
-    ``counts``; else one line naming ``--option``."""
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) not in counts:
-        raise ParameterError(f"--{option} must be {' or '.join(map(str, counts))} numbers "
-                             f"separated by commas, got {text!r}")
-    return values
-
-
-def steady_steps(physics):
-    """Steps of one longest lifetime (``physics.lifetime[1] / physics.dt``, rounded up): run
-    before the first frame, an emitting scene's particles are all born and dying at a steady
-    rate from that frame on."""
-    return int(np.ceil(physics.lifetime[1] / physics.dt))
+from ..render.points import Density
+from ..params import Params
 
 
 @dataclass(frozen=True)
@@ -62,8 +44,15 @@ class Fill:
 
 
 class Scene:
-    """Base of the scenes. Subclasses set the class attributes and override the declarations."""
+    """Base of the scenes. Subclasses set the class attributes and override the declarations.
 
+    A scene's parameters are its :attr:`Params` (``params.py``): ``Scene(params)`` or
+    ``Scene(name=value, ...)`` for some of them (the rest their defaults); the command line's
+    options, their help and checks, a run file's values and the page's sliders all come from
+    that declaration."""
+
+    Params = Params  # a scene's parameters: none by default
+    renders = Density  # the kind of rendering() it returns (its frame settings follow from it)
     name = ""
     view = (-1.0, -1.0, 1.0, 1.0)  # a 2D scene's world rectangle: x0, y0, x1, y1
     render_reads = ("position",)  # what a 2D scene's points read: position, and life to fade
@@ -76,16 +65,37 @@ class Scene:
     # (cluster.py); otherwise a frame needs every step and frame before it.
     stateless = False
 
+    def __init__(self, params=None, **given):
+        params = self.Params() if params is None else params
+        if not isinstance(params, self.Params):
+            raise ParameterError(f"{self.name or type(self).__name__}: params must be a "
+                                 f"{self.Params.__name__}, got {type(params).__name__}")
+        if given:
+            params = self.Params.from_mapping({**params.values(), **given}, self.name)
+        self.params = params
+
     # -- declarations ----------------------------------------------------------------------
 
     @classmethod
+    def default_text(cls, setting):
+        """How the help of frame setting ``setting`` states this scene's default of it (one of
+        :class:`~es2particles.frame.settings.Defaults`' fields)."""
+        value = getattr(cls.defaults, setting)
+        if setting == "particles" and value >= 1024 and value & (value - 1) == 0:
+            return f"2^{value.bit_length() - 1}"
+        return f"{value:g}" if isinstance(value, float) else str(value)
+
+    @classmethod
     def add_arguments(cls, parser):
-        """Add the scene's own command-line options (default None: the scene decides)."""
+        """Add the scene's own command-line options: one per parameter its :attr:`Params`
+        offers (default None: not given)."""
+        cls.Params.add_arguments(parser)
 
     @classmethod
     def from_args(cls, args):
-        """The scene from parsed arguments."""
-        return cls()
+        """The scene of parsed arguments (an ``argparse.Namespace`` or a mapping): the
+        parameters given, the rest their defaults."""
+        return cls(cls.Params.from_mapping(cls.Params.given_in(args), cls.name))
 
     def graph(self, caps=None):
         """The scene's complete :class:`~es2particles.PassGraph` for a context of ``caps``
@@ -97,8 +107,6 @@ class Scene:
         """What the scene draws: by default :class:`~es2particles.render.points.Density` points
         of :attr:`render_reads` over :attr:`view`, on :meth:`background`; a 3D scene returns a
         :class:`~es2particles.render.sprites.Sprites`."""
-        from ..render.points import Density
-
         return Density(self.view, self.render_reads, self.background())
 
     def start(self, count, rng):
@@ -120,12 +128,15 @@ class Scene:
         return None
 
     def controls(self):
-        """The sliders of the scene's WebGL page: a list of :class:`Control`."""
-        return []
+        """The sliders of the scene's WebGL page: one :class:`Control` per parameter declared
+        with a ``slider``."""
+        return [Control(name, *d.slider) for name, d in self.Params.declarations().items()
+                if d.slider is not None]
 
     def describe(self):
-        """Extra lines for the printed plan."""
-        return []
+        """Lines for the printed plan: the scene's parameters."""
+        described = self.params.describe() if hasattr(self, "params") else ""
+        return [f"parameters: {described}"] if described else []
 
     def measured(self, ctx):
         """Lines the printed plan measures on the context (slow figures), after describe()."""

@@ -4,7 +4,7 @@ GLSL: attractors/clifford.frag."""
 
 import numpy as np
 
-from .attractor import Attractor
+from .attractor import Attractor, AttractorParams
 
 
 def clifford_map(p, k, iterations=1):
@@ -16,12 +16,15 @@ def clifford_map(p, k, iterations=1):
     return p
 
 
+CliffordParams = AttractorParams.with_coefficients("CliffordParams", (-1.4, 1.6, 1.0, 0.7))
+
+
 class Clifford(Attractor):
     """The Clifford attractor (Clifford Pickover's map)."""
 
     name = "clifford"
     shader = "attractors/clifford.frag"
-    coefficients_default = (-1.4, 1.6, 1.0, 0.7)
+    Params = CliffordParams
     map = staticmethod(clifford_map)
 
     @classmethod

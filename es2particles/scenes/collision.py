@@ -21,11 +21,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError, check_range
+from ..errors import ParameterError
 from ..fields.field2d import CollisionField, cell_size, parse_shape
 from ..frame.graph import PassGraph
+from ..frame.settings import Defaults
+from ..params import Params, param
 from ..twins.life import LIFE_STEPS, life_range, longest_life, staggered_births
-from .base import Defaults, Scene, steady_steps
+from .base import Scene
 
 RECT = (-1.0, -1.0, 1.0, 1.0)
 # The most sub-steps a particle's step may take: a loop bound compiled into the shader (ES 1.00
@@ -34,46 +36,53 @@ SUBSTEP_LIMIT = 4096
 
 
 @dataclass(frozen=True)
-class Physics:
-    """The scene's parameters (SI-like units: scene units, seconds)."""
+class CollisionParams(Params):
+    """The scene's parameters (scene units: the view is [-1, 1]^2; seconds). Fields declared
+    with ``option=False`` are the report's and the tests' knobs."""
 
-    dt: float = 1 / 60
-    gravity: tuple = (0.0, -3.0)
-    drag: float = 0.05
-    spring: tuple = (0.0, 0.0, 0.0)  # centre x, y and omega^2
-    sliding: float = 0.5  # the chapter's mass as sliding factor, in [0, 1]
-    bounce: float = 0.6
-    emit: bool = True
-    emitter: tuple = (-0.7, -0.95)
-    direction: float = np.radians(68)
-    spread: float = 0.3
-    speed: tuple = (2.6, 3.2)
-    lifetime: tuple = (3.0, 5.0)
-    max_speed: float = 8.0  # velocity range is [-max_speed, max_speed]
+    shape: str = param("circle", text=True, metavar="SHAPE[+SHAPE...]|MASK.png",
+                       help="circle, box, capsule, a union such as circle+box, or a PNG mask "
+                            "(dark or opaque pixels are solid) stretched over the scene")
+    field_resolution: int = param(256, 8, 4096, integer=True,
+                                  help="collision field cells per side")
+    dt: float = param(1 / 60, 1e-6, 1.0, unit="s", help="time step")
+    gravity: tuple = param((0.0, -3.0), -1e4, 1e4, count=2, unit="units/s^2",
+                           help="the acceleration of gravity (a vector, as in every scene)")
+    drag: float = param(0.05, 0.0, 1e6, unit="1/s", help="drag k of v' = -k v (exact)")
+    sliding: float = param(0.5, 0.0, 1.0, help="the chapter's sliding factor (its mass): 1 "
+                                               "bounces along the normal, 0 slides")
+    bounce: float = param(0.6, 0.0, 2.0, help="the chapter's bouncing resistance r")
+    lifetime: tuple = param((3.0, 5.0), 1e-6, None, count=2, unit="s", metavar="MIN,MAX",
+                            help="lifetime range (at most 32512 steps of --dt)")
+    speed: tuple = param((2.6, 3.2), 0.0, 1e4, count=2, unit="units/s", metavar="MIN,MAX",
+                         help="emission speed range")
+    emitter: tuple = param((-0.7, -0.95), -1.0, 1.0, count=2, help="the emitter's place")
+    direction: float = param(68.0, -360.0, 360.0, unit="degrees",
+                             help="the emission's direction, from +x towards +y")
+    spread: float = param(float(np.degrees(0.3)), 0.0, 360.0, unit="degrees",
+                          help="the emission's angular spread about its direction")
+    spring: tuple = param((0.0, 0.0, 0.0), (-1e4, -1e4, 0.0), (1e4, 1e4, 1e6), count=3,
+                          option=False, help="a spring towards x, y of omega^2")
+    emit: bool = param(True, flag=True, option=False,
+                       help="emit (else every particle is born now and lives on)")
+    max_speed: float = param(8.0, 1e-3, 1e4, unit="units/s", option=False,
+                             help="the velocity range's bound")
 
-    def __post_init__(self):
-        check_range("dt", self.dt, 1e-6, 1.0)
-        check_range("drag", self.drag, 0, 1e6)
-        check_range("spring omega^2", self.spring[2], 0, 1e6)
-        check_range("sliding", self.sliding, 0, 1)
-        check_range("bounce", self.bounce, 0, 2)
-        check_range("spread", self.spread, 0, 2 * np.pi)
-        check_range("max_speed", self.max_speed, 1e-3, 1e4)
-        lo, hi = (check_range("speed", v, 0, self.max_speed) for v in self.speed)
-        if hi < lo:
-            raise ParameterError(f"speed range must have min <= max, got {self.speed}")
+    def check(self):
+        lo, hi = self.speed
+        if not lo <= hi <= self.max_speed:
+            raise ParameterError(f"--speed must be MIN,MAX with 0 <= MIN <= MAX <= "
+                                 f"{self.max_speed:g} (the velocity range), got {lo:g},{hi:g}")
         longest = longest_life(self.dt)
         if self.lifetime[1] > longest:
             raise ParameterError(
-                f"lifetime up to {self.lifetime[1]:g} s is {self.lifetime[1] / self.dt:.0f} steps "
-                f"of dt {self.dt:g}; the life clock counts whole steps in 16 bits, at most "
+                f"--lifetime up to {self.lifetime[1]:g} s is {self.lifetime[1] / self.dt:.0f} "
+                f"steps of dt {self.dt:g}; the life clock counts whole steps in 16 bits, at most "
                 f"{LIFE_STEPS} ({longest:.4g} s at this dt): shorten --lifetime or raise --dt")
-        lo, hi = (check_range("lifetime", v, self.dt, longest) for v in self.lifetime)
-        if hi < lo:
-            raise ParameterError(f"lifetime range must have min <= max, got {self.lifetime}")
-        for name, value in (("gravity", self.gravity), ("emitter", self.emitter)):
-            for v in value:
-                check_range(name, v, -1e4, 1e4)
+        lo, hi = self.lifetime
+        if not self.dt <= lo <= hi:
+            raise ParameterError(f"--lifetime must be MIN,MAX with dt {self.dt:g} <= MIN <= MAX, "
+                                 f"got {lo:g},{hi:g}")
 
     @property
     def max_age(self):
@@ -122,7 +131,8 @@ class Physics:
         """Uniforms of the life cycle (age, respawn): every pass uses them."""
         return {
             "u_dt": float(self.dt), "u_emit": 1.0 if self.emit else 0.0,
-            "u_emitter": (*map(float, self.emitter), float(self.direction), float(self.spread)),
+            "u_emitter": (*self.emitter, float(np.radians(self.direction)),
+                          float(np.radians(self.spread))),
             "u_speed": tuple(map(float, self.speed)), "u_lifetime": tuple(map(float, self.lifetime)),
         }
 
@@ -145,56 +155,39 @@ class Collision(Scene):
     """A fountain bouncing off objects described by a distance/normal field."""
 
     name = "collision"
+    defaults = Defaults(particles=2 ** 17, point_size=2.0, rounding="dither")
     view = RECT
     render_reads = ("position", "life")  # life: fade with age; unborn and dead are not drawn
 
-    def __init__(self, shape="circle", physics=Physics(), field_resolution=(256, 256), field=None):
-        self.physics = physics
+    Params = CollisionParams
+
+    def __init__(self, params=None, field=None, **given):
+        """``field``: a :class:`~es2particles.fields.field2d.CollisionField` made already, in
+        place of the one ``shape`` and ``field_resolution`` make."""
+        super().__init__(params, **given)
+        p = self.params
         if field is None:
             # Refuse what the sub-steps cannot honour before the (costly) field is made.
-            physics.check_substeps(cell_size(RECT, field_resolution))
-            shapes, mask = parse_shape(shape, RECT)
-            field = CollisionField(RECT, shapes, mask, field_resolution)
+            resolution = (p.field_resolution, p.field_resolution)
+            p.check_substeps(cell_size(RECT, resolution))
+            shapes, mask = parse_shape(p.shape, RECT)
+            field = CollisionField(RECT, shapes, mask, resolution)
         self.field = field
-        self.max_substeps = physics.check_substeps(field.cell)
+        self.max_substeps = p.check_substeps(field.cell)
         # Steady from the first frame: run one longest lifetime before it (see start). 2^17
         # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
         # a slow particle's sub-code moves are kept on average.
-        steps = steady_steps(physics) if physics.emit else 0
+        steps = int(np.ceil(p.lifetime[1] / p.dt)) if p.emit else 0
         self.defaults = Defaults(particles=2 ** 17, point_size=2.0, steps=steps, rounding="dither")
 
     @classmethod
-    def add_arguments(cls, parser):
-        add = parser.add_argument
-        add("--shape", default="circle", help="circle, box, capsule, a union such as circle+box, "
-            "or a PNG mask (dark or opaque pixels are solid) stretched over the scene (default "
-            "circle)")
-        add("--field-resolution", type=int, default=256,
-            help="collision field cells per side (default 256)")
-        add("--dt", type=float, default=1 / 60, help="time step in seconds (default 1/60)")
-        add("--gravity", type=float, default=3.0, help="downward acceleration (default 3)")
-        add("--drag", type=float, default=0.05, help="drag coefficient k (default 0.05)")
-        add("--sliding", type=float, default=0.5,
-            help="sliding factor (mass) in [0, 1] (default 0.5)")
-        add("--bounce", type=float, default=0.6, help="bouncing resistance r (default 0.6)")
-        add("--lifetime", type=float, nargs=2, default=(3.0, 5.0), metavar=("MIN", "MAX"),
-            help="lifetime range in seconds (default 3 5; at most 32512 steps of --dt)")
-        add("--speed", type=float, nargs=2, default=(2.6, 3.2), metavar=("MIN", "MAX"),
-            help="emission speed range (default 2.6 3.2)")
-
-    @classmethod
-    def from_args(cls, args):
-        if args.lifetime[0] < 0 or args.lifetime[1] < 0:
-            raise ParameterError(f"lifetime must be positive, got {tuple(args.lifetime)}")
-        check_range("gravity", args.gravity, -1e4, 1e4)  # before the sign turns: name what was typed
-        physics = Physics(dt=args.dt, gravity=(0.0, -args.gravity), drag=args.drag,
-                          sliding=args.sliding, bounce=args.bounce, lifetime=tuple(args.lifetime),
-                          speed=tuple(args.speed))
-        res = int(check_range("field-resolution", args.field_resolution, 8, 4096, integer=True))
-        return cls(args.shape, physics, (res, res))
+    def default_text(cls, setting):
+        if setting == "steps":
+            return "one longest lifetime (--lifetime MAX / --dt)"
+        return super().default_text(setting)
 
     def graph(self):
-        p = self.physics
+        p = self.params
         g = PassGraph()
         g.quantity("position", RECT[:2], RECT[2:])
         g.quantity("velocity", -p.max_speed, p.max_speed)
@@ -212,7 +205,7 @@ class Collision(Scene):
         return g
 
     def start(self, count, rng):
-        p = self.physics
+        p = self.params
         if p.emit:
             life = staggered_births(count, p.lifetime, rng)
         else:  # born now, living as long as the range allows
@@ -222,7 +215,7 @@ class Collision(Scene):
     def describe(self):
         from ..fields.field2d import memory_table
 
-        f, p = self.field, self.physics
+        f, p = self.field, self.params
         w, h = f.resolution
         lines = [f"collision field: {w}x{h} cells of {f.cell:.4g} (RGBA8: packed distance within "
                  f"+-{f.max_distance:g}, 8-bit normal), {w * h * 4} bytes; made once in numpy",

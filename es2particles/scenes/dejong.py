@@ -4,7 +4,7 @@ of the packed range (and stays there). GLSL: attractors/dejong.frag."""
 
 import numpy as np
 
-from .attractor import Attractor
+from .attractor import Attractor, AttractorParams
 
 ARTICLE_COEFFICIENTS = (1.4, -2.3, 2.4, -2.1)
 
@@ -18,12 +18,15 @@ def dejong_map(p, k, iterations=1):
     return p
 
 
+DeJongParams = AttractorParams.with_coefficients("DeJongParams", ARTICLE_COEFFICIENTS)
+
+
 class DeJong(Attractor):
     """The Peter de Jong attractor (the ES 2.0 article's scene)."""
 
     name = "dejong"
     shader = "attractors/dejong.frag"
-    coefficients_default = ARTICLE_COEFFICIENTS
+    Params = DeJongParams
     map = staticmethod(dejong_map)
 
     @classmethod

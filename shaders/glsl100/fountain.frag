@@ -5,13 +5,12 @@
 // floor (FLOOR_KILL: re-emitted at once, as the seed) or bounce off it. One file, three passes
 // (WRITE_VELOCITY, WRITE_POSITION, WRITE_LIFE) computing the same particle, as collision.frag.
 // Uniforms, declared by the graph from the scene (scenes/fountain.py): u_dt, u_gravity (vec3),
-// u_drag, u_bounce, u_max_speed, u_speed (horizontal min, max, vertical min, max), u_lifetime,
-// u_emitters[2 EMITTERS] (per emitter: its point and the cumulative share of the particles up to
-// it, then its direction). A particle's emitter is chosen by a hash of its texel index against
-// the shares, so each emitter gets its rate's share of the particles.
+// u_drag, u_bounce, u_max_speed, u_lifetime; the point emitters' u_emitters and u_speed are
+// lib/emitters.glsl's, which launches each particle from one of them.
 // numpy twin: es2particles/twins/fountain.py.
 #include "lib/life.glsl"
 #include "lib/drag.glsl"
+#include "lib/emitters.glsl"
 
 struct Particle {
     vec3 x;
@@ -19,34 +18,11 @@ struct Particle {
     vec2 life;
 };
 
-// The emitter of the particle at ``uv``: its point (xyz) and direction (out).
-vec3 emitter_of(vec2 uv, out vec3 direction)
-{
-    float share = hash44(vec4(floor(uv * u_state_size), 19.0, 23.0)).x;
-    vec3 e = u_emitters[0].xyz;
-    direction = u_emitters[1].xyz;
-    for (int i = 1; i < EMITTERS; ++i) {  // ES 1.00 fragment shaders index uniforms by constants
-        if (share >= u_emitters[2 * i - 2].w) {
-            e = u_emitters[2 * i].xyz;
-            direction = u_emitters[2 * i + 1].xyz;
-        }
-    }
-    return e;
-}
-
 Particle emit(vec2 uv)
 {
     vec4 r = life_random(uv);
-    float azimuth = 6.2831853 * r.x;
-    float across = mix(u_speed.x, u_speed.y, r.y);
-    vec3 up;
     Particle p;
-    p.x = emitter_of(uv, up);
-    // The launch in the emitter's frame: "up" speed along its direction, "across" speed at a
-    // random azimuth around it.
-    vec3 side = normalize(cross(up, abs(up.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
-    vec3 other = cross(up, side);
-    p.v = up * mix(u_speed.z, u_speed.w, r.z) + (side * cos(azimuth) + other * sin(azimuth)) * across;
+    p.v = emitter_launch(uv, r, p.x);
     p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, r.w));
     return p;
 }

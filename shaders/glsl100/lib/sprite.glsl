@@ -3,7 +3,17 @@
 // of +-spread from a hash of its texel (random sizes, as the JOGL seed) and its growth with age
 // (lib/life.glsl, GROWTH). The pixel size is this times the size at distance 1 over the
 // particle's distance from the eye (or the light).
+// FADE: the particle's life clock, read_life(); without it, alive at age 0 forever.
 #include "lib/life.glsl"
+
+vec2 sprite_life(vec2 texel)
+{
+#ifdef FADE
+    return read_life(texel);
+#else
+    return vec2(0.0, 1.0);
+#endif
+}
 
 float sprite_scale(vec2 texel, vec2 life, float spread)
 {

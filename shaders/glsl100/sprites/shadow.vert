@@ -12,7 +12,7 @@ varying vec4 v_opacity;
 void main()
 {
     vec3 p = read_position(a_texel);
-    vec2 life = read_life(a_texel);
+    vec2 life = sprite_life(a_texel);
     gl_Position = u_light_view_projection * vec4(p, 1.0);
     gl_PointSize = shadow_point_size(p, a_texel, life);
     float layer = floor(shadow_layer(p));

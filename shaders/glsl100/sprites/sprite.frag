@@ -9,10 +9,18 @@ uniform vec4 u_tint;  // rgb, and how much of it replaces the texture's colour
 uniform float u_opacity;
 varying float v_alpha;
 varying float v_light;
+#ifdef COLOUR
+varying vec3 v_colour;  // the particle's own tint (a COLOUR role), in place of u_tint.rgb
+#endif
 
 void main()
 {
     vec4 t = texture2D(u_sprite, gl_PointCoord);
     float a = t.a * v_alpha * u_opacity;
-    gl_FragColor = vec4(mix(t.rgb, u_tint.rgb, u_tint.a) * (v_light * a), a);
+#ifdef COLOUR
+    vec3 tint = v_colour;
+#else
+    vec3 tint = u_tint.rgb;
+#endif
+    gl_FragColor = vec4(mix(t.rgb, tint, u_tint.a) * (v_light * a), a);
 }

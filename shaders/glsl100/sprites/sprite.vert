@@ -4,9 +4,12 @@
 // point parameters do, size * sqrt(1 / (a + b d + c d^2)), times a per-particle factor (random
 // sizes, as the seed, and growth with age: lib/sprite.glsl), clamped to the driver's point-size
 // range; below the fade threshold the sprite keeps the threshold size and fades by
-// (size / threshold)^2. Alpha
-// falls with age; unborn and dead particles are not drawn. read_position(), read_life() and the
-// uniforms are declared by the renderer (es2particles/bindings.py).
+// (size / threshold)^2. The renderer's inputs are roles (es2particles/render/sprites.py), each
+// read as the quantity the scene maps to it, by the role's name: read_position() always;
+// FADE: read_life(), (age, lifetime): alpha falls with age, unborn and dead particles are not
+// drawn (without it every particle is alive at age 0); SIZE: read_size(), a factor of the size;
+// COLOUR: read_colour(), the particle's tint. They and the uniforms are declared by the renderer
+// (es2particles/gl/bindings.py).
 // SORTED: vertex i draws the particle in slot i of the order texture (es2particles/sort.py), so
 // the sprites are drawn back to front. SHADOWED: the light reaching the particle through the
 // opacity shadow map (es2particles/shadow.py, lib/shadow.glsl) shades it.
@@ -14,6 +17,9 @@ attribute vec2 a_texel;
 uniform mat4 u_view_projection;
 varying float v_alpha;
 varying float v_light;
+#ifdef COLOUR
+varying vec3 v_colour;
+#endif
 #include "lib/sprite.glsl"
 #ifdef SORTED
 #include "lib/order.glsl"
@@ -31,11 +37,17 @@ void main()
     vec2 texel = a_texel;
 #endif
     vec3 p = read_position(texel);
-    vec2 life = read_life(texel);
+    vec2 life = sprite_life(texel);
     gl_Position = u_view_projection * vec4(p, 1.0);
     float d = distance(u_eye, p);
     float size = u_size.x * sprite_scale(texel, life, u_size.y)
         * sqrt(1.0 / (u_attenuation.x + u_attenuation.y * d + u_attenuation.z * d * d));
+#ifdef SIZE
+    size *= read_size(texel);
+#endif
+#ifdef COLOUR
+    v_colour = read_colour(texel);
+#endif
     float fade = 1.0;
     if (size < u_fade) {
         fade = (size / u_fade) * (size / u_fade);

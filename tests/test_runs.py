@@ -1,0 +1,189 @@
+"""A scene's parameters declared once, and a run as a file: the help states each scene's true
+defaults and only the options it uses; --save-config then --config makes the same bytes;
+--load-state resumes byte for byte; a bad run file or state file is one line and writes
+nothing."""
+
+import re
+
+import numpy as np
+import pytest
+
+from es2particles.cli import build_parser, main
+from es2particles.scenes import BUILT_IN, scene_class
+
+SMALL = ["--particles", "2048", "--size", "96x96"]
+# Options every scene's run takes (the output, the run as a file, the frames, the cluster).
+RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-frame",
+               "--fps", "--save-state", "--load-state", "--workers", "--scheduler"}
+# The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
+COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size"}
+DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",
+                "--bloom-threshold", "--bloom-radius", "--bloom-intensity"}
+
+
+def help_of(capsys, *argv):
+    with pytest.raises(SystemExit):
+        main([*argv, "--help"])
+    return capsys.readouterr().out
+
+
+def listed_options(text):
+    return set(re.findall(r"^\s+(--[a-z-]+)", text, re.M))
+
+
+@pytest.mark.parametrize("name", BUILT_IN)
+def test_help_lists_only_the_options_the_scene_uses(capsys, name):
+    text = help_of(capsys, "run", name)
+    listed = listed_options(text)
+    params = {"--" + n.replace("_", "-") for n in scene_class(name).Params.options()}
+    sprites = name in ("fountain", "collision3d", "smoke")
+    expected = RUN_OPTIONS | COMMON | params | (set() if sprites else DENSITY_ONLY)
+    assert listed == expected, (listed ^ expected)
+    if sprites:
+        assert not listed & DENSITY_ONLY
+
+
+# Each scene's defaults as the README and docs state them, typed here, not read from the code.
+STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^17", "2"),
+          "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "smoke": ("2^15", "16")}
+
+
+@pytest.mark.parametrize("name", BUILT_IN)
+def test_help_states_the_scene_s_own_defaults(capsys, name):
+    text = " ".join(help_of(capsys, "run", name).split())
+    particles, point_size = STATED[name]
+    assert f"particle count; in [1, inf]; default {particles}" in text
+    assert re.search(rf"--point-size X point or sprite diameter .*?default {point_size}\b", text)
+
+
+def test_the_fountain_s_help_is_its_own(capsys):
+    text = " ".join(help_of(capsys, "run", "fountain").split())
+    for words in ("--gravity X,Y,Z the acceleration of gravity (a vector, as in every scene); "
+                  "m/s^2; in [-100, 100]; default 0,-9.81,0",
+                  "--lifetime MIN,MAX lifetime range; s;", "default 2,2.5",
+                  "--eye X,Y,Z the camera's place; m; in [-1000, 1000]; default 0,3,7.5"):
+        assert words in text
+
+
+@pytest.mark.parametrize("argv, named", [
+    (["run", "fountain", "--gradient", "ice"], "--gradient"),
+    (["run", "smoke", "--accumulate", "4"], "--accumulate"),
+    (["run", "collision3d", "--no-bloom"], "--no-bloom"),
+    (["run", "fountain", "--gravity", "9.81"], "--gravity must be 3 numbers"),
+    (["run", "fountain", "--gravty", "1"], "unrecognized arguments: --gravty"),
+    (["run", "smoke", "--lifetime", "4", "6"], "unrecognized arguments: 6"),
+    (["run", "dejong", "--steps-per-frame", "3"], "--steps-per-frame: a still has one frame"),
+])
+def test_an_option_the_scene_does_not_take_is_one_line_naming_it(tmp_path, capsys, argv, named):
+    assert main([*argv, "--out", str(tmp_path / "f.png")]) == 2
+    err = capsys.readouterr().err
+    assert named in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_smoke_takes_its_lifetime_as_its_help_writes_it(capsys):
+    text = " ".join(help_of(capsys, "run", "smoke").split())
+    assert "--lifetime MIN,MAX lifetime range; s; in [0.0001, inf]; default 4,6" in text
+    args = build_parser(["run", "smoke"]).parse_args(["run", "smoke", "--lifetime", "4,6",
+                                                      "--out", "x.png"])
+    from es2particles.cli import run_of
+
+    assert run_of(args).make_scene().params.lifetime == (4.0, 6.0)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("argv", [
+    ["run", "fountain", *SMALL, "--emitters", "0,0,0;1,0,1,0.3,1,0,2", "--blend", "over"],
+    ["run", "dejong", *SMALL, "--a", "1.7", "--gradient", "ice", "--bloom-radius", "2"],
+    ["run", "smoke", "--particles", "1024", "--size", "64x48", "--sort", "3", "--frames", "2",
+     "--steps-per-frame", "4"],
+])
+def test_a_saved_run_file_makes_the_same_bytes(tmp_path, argv):
+    suffix = ".gif" if "--frames" in argv else ".png"
+    a, b, config = tmp_path / f"a{suffix}", tmp_path / f"b{suffix}", tmp_path / "run.toml"
+    assert main([*argv, "--save-config", str(config), "--out", str(a)]) == 0
+    assert main(["run", "--config", str(config), "--out", str(b)]) == 0
+    assert a.read_bytes() == b.read_bytes()
+    # Flags beside the file override it: the same as typing the flag on the first command.
+    c, d = tmp_path / f"c{suffix}", tmp_path / f"d{suffix}"
+    assert main(["run", "--config", str(config), "--seed", "5", "--out", str(c)]) == 0
+    assert main([*argv, "--seed", "5", "--out", str(d)]) == 0
+    assert c.read_bytes() == d.read_bytes() != a.read_bytes()
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("name", ["fountain", "collision", "smoke", "dejong"])
+def test_load_state_resumes_byte_for_byte(tmp_path, name):
+    """100 steps equal 50 steps, --save-state, --load-state and 50 more: the picture and the
+    saved state (every texel of every part)."""
+    small = ["--particles", "1024", "--size", "64x64"]
+    assert main(["run", name, *small, "--steps", "100", "--out", str(tmp_path / "100.png"),
+                 "--save-state", str(tmp_path / "100.npz")]) == 0
+    assert main(["run", name, *small, "--steps", "50", "--out", str(tmp_path / "50.png"),
+                 "--save-state", str(tmp_path / "50.npz")]) == 0
+    assert main(["run", name, *small, "--steps", "50", "--load-state", str(tmp_path / "50.npz"),
+                 "--out", str(tmp_path / "resumed.png"), "--save-state",
+                 str(tmp_path / "resumed.npz")]) == 0
+    assert (tmp_path / "100.png").read_bytes() == (tmp_path / "resumed.png").read_bytes()
+    with np.load(tmp_path / "100.npz") as whole, np.load(tmp_path / "resumed.npz") as resumed:
+        assert sorted(whole.files) == sorted(resumed.files)
+        for key in whole.files:
+            assert np.array_equal(whole[key], resumed[key]), key
+    assert (tmp_path / "50.png").read_bytes() != (tmp_path / "100.png").read_bytes()
+
+
+BAD_FILES = {
+    "unknown key": ('scene = "fountain"\ncolour = 3\n', "run.toml: unknown key 'colour'"),
+    "unknown parameter": ('scene = "fountain"\n[parameters]\ngravty = [0, -1, 0]\n',
+                          "run.toml: [parameters] 'gravty' is not a parameter of fountain"),
+    "wrong type": ('scene = "fountain"\n[parameters]\ndrag = "a"\n',
+                   "run.toml: [parameters] drag must be a number, got 'a'"),
+    "wrong count": ('scene = "fountain"\n[parameters]\ngravity = [0, -9.81]\n',
+                    "run.toml: [parameters] gravity must be a list of 3 numbers"),
+    "out of range": ('scene = "fountain"\n[parameters]\ndrag = 1e9\n',
+                     "run.toml: [parameters] drag must be in [0, 100], got 1e+09"),
+    "not a choice": ('scene = "fountain"\n[parameters]\nfloor = "up"\n',
+                     "run.toml: [parameters] floor must be one of kill, bounce, got 'up'"),
+    "unused setting": ('scene = "fountain"\n[settings]\ngradient = "ice"\n',
+                       "--gradient: scene 'fountain' does not use this setting"),
+    "bad setting": ('scene = "dejong"\n[settings]\nparticles = -4\n',
+                    "[settings] particles must be in [1, inf], got -4"),
+    "unknown scene": ('scene = "fountan"\n', "no scene is registered as 'fountan'"),
+    "not TOML": ('scene = "fountain"\n[parameters\n', "run.toml' is not a TOML run file"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_FILES)
+def test_a_bad_run_file_is_one_line_naming_the_key(tmp_path, capsys, case):
+    text, message = BAD_FILES[case]
+    (tmp_path / "run.toml").write_text(text)
+    out = tmp_path / "x.png"
+    assert main(["run", "--config", str(tmp_path / "run.toml"), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.toml"]
+
+
+@pytest.mark.gl
+def test_a_bad_state_file_is_one_line_naming_what_differs(tmp_path, capsys):
+    state = tmp_path / "s.npz"
+    assert main(["run", "fountain", *SMALL, "--steps", "3", "--out", str(tmp_path / "a.png"),
+                 "--save-state", str(state)]) == 0
+    capsys.readouterr()
+    (tmp_path / "cut.npz").write_bytes(state.read_bytes()[:1000])
+    np.savez(tmp_path / "plain.npz", position=np.zeros((4, 3)))
+    cases = [(["fountain", "--particles", "4096", "--size", "96x96"], state,
+              "is the state of another run: particles 2048 (this run: 4096)"),
+             (["smoke", *SMALL], state, "scene 'fountain' (this run: 'smoke')"),
+             (["fountain", *SMALL, "--format", "rgba32f"], state,
+              "format 'rgba8' (this run: 'rgba32f')"),
+             (["fountain", *SMALL], tmp_path / "cut.npz", "cut.npz' is not a state file"),
+             (["fountain", *SMALL], tmp_path / "plain.npz", "plain.npz' holds no run's state"),
+             (["fountain", *SMALL], tmp_path / "none.npz", "none.npz")]
+    before = sorted(p.name for p in tmp_path.iterdir())
+    for argv, path, message in cases:
+        assert main(["run", *argv, "--load-state", str(path), "--out",
+                     str(tmp_path / "b.png")]) == 2
+        err = capsys.readouterr().err
+        assert message in err and len(err.strip().splitlines()) == 1, (argv, err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before

@@ -16,7 +16,11 @@ _EXPORTS = {
     "GraphError": "errors", "ParameterError": "errors", "ShaderError": "errors",
     "Pass": "frame.graph", "PassGraph": "frame.graph", "Plan": "frame.graph",
     "Pipeline": "frame.pipeline", "Simulation": "frame.simulation", "Layout": "frame.state",
-    "Quantity": "frame.state",
+    "Quantity": "frame.state", "Defaults": "frame.settings", "FrameSettings": "frame.settings",
+    "Params": "params", "param": "params", "Scene": "scenes.base", "Fill": "scenes.base",
+    "Emitter": "scenes.emitter", "EmitterParams": "scenes.emitter", "Camera": "render.camera",
+    "Density": "render.points", "Sprites": "render.sprites", "Renderer": "frame.pipeline",
+    "save_image": "io.output", "save_animation": "io.output",
 }
 
 
@@ -31,8 +35,4 @@ def __dir__():
 
 
 __version__ = "0.1.0"
-__all__ = [
-    "Capabilities", "CapabilityError", "Context", "ContextError", "Es2ParticlesError",
-    "GraphError", "Layout", "ParameterError", "Pass", "PassGraph", "Pipeline", "Plan", "Quantity",
-    "ShaderError", "Simulation", "open_context",
-]
+__all__ = sorted(_EXPORTS)

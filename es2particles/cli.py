@@ -47,6 +47,7 @@ def build_parser(argv=None):
 def main(argv=None):
     argv = _join_negative_values(sys.argv[1:] if argv is None else argv)
     restore = _terminate_as_interrupt()
+    shown = _warnings_as_lines()
     try:
         argv = with_config_scene(argv)
         args = build_parser(argv).parse_args(argv)
@@ -68,6 +69,7 @@ def main(argv=None):
         return 130
     finally:
         restore()
+        shown()
 
 
 def console_main():
@@ -138,6 +140,20 @@ def _note_static_animation(run, frames):
               "frames differ only as particles move" + (" (reseeded: not at all)"
                                                         if run.options.get("reseed") else "")
               + "; give --animate-to A,B,C,D to animate them", file=sys.stderr)
+
+
+def _warnings_as_lines():
+    """The package's warnings said as its errors are, one line each, while the command runs;
+    returns what restores Python's way of showing them."""
+    import warnings
+
+    previous = warnings.showwarning
+
+    def show(message, category, filename, lineno, file=None, line=None):
+        print(f"es2particles: warning: {message}", file=sys.stderr)
+
+    warnings.showwarning = show
+    return lambda: setattr(warnings, "showwarning", previous)
 
 
 def _terminate_as_interrupt():

@@ -28,6 +28,11 @@ class ShaderError(Es2ParticlesError):
     """A shader failed to load, compile or link; the message names the file and the line."""
 
 
+class NothingDrawnWarning(UserWarning):
+    """A picture shows nothing of its particles (sprites too small or out of sight); the
+    message says the sizes and distances that made it so."""
+
+
 class GraphError(Es2ParticlesError):
     """A pass graph is inconsistent: a cycle, a read nobody provides, two writers of one quantity."""
 

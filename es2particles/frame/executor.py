@@ -153,9 +153,8 @@ class Executor:
                                     aspect)
                   for name, spec in stage.frame_uniforms.items()}
         swaps = self.plan.resources[stage.target.resource].swap == "draw"
-        if clear and stage.clear is not None:
-            self.ctx.clear(target.framebuffer(stage.target.part), stage.clear,
-                           1.0 if target.depth is not None else None)
+        if clear:
+            self.clear(stage)
         if stage.repeat:
             for index in self._next_draws(stage) if draws is None else draws:
                 textures = {s: self.texture(ref) for s, ref in stage.inputs.items()}
@@ -177,6 +176,13 @@ class Executor:
             command.draw(framebuffer, textures, values, 0, count)
         if swaps:
             target.swap()
+
+    def clear(self, stage):
+        """Clear ``stage``'s target as the stage does before it draws (if it does)."""
+        if stage.clear is not None:
+            target = self.resources[stage.target.resource]
+            self.ctx.clear(target.framebuffer(stage.target.part), stage.clear,
+                           1.0 if target.depth is not None else None)
 
     def _next_draws(self, stage):
         """Indices into ``stage.repeat`` of this frame's draws: all, or the next ``per_frame``

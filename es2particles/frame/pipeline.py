@@ -7,9 +7,11 @@ cluster's tasks, the shares of a large still and a notebook iterate it. :class:`
 rendering declaration from a simulation someone else made (tools and tests).
 """
 
+import warnings
+
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import NothingDrawnWarning, ParameterError
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
 from .settings import DEFAULT, Defaults, FrameSettings, parse_size
@@ -107,9 +109,14 @@ class Pipeline:
         except Exception:
             self.release()
             raise
-        self.final = None
+        self.final = self._read = None
         self._ordered = not scene.positions_repeat
         self._drawn = False  # a first frame was drawn: ordering pays from the second one on
+        # Sprites drawn straight to the picture: the first frame checks that one lit a pixel
+        # (where the device draws: a recording device's pictures are empty).
+        sprites = [s for s in self.plan.frame_stages if s.kind == "sprites"]
+        self._unlit_check = sprites[0] if sprites and ctx.device.draws and \
+            sprites[0].target.resource == self.plan.present else None
 
     # -- the frame loop ----------------------------------------------------------------------------
 
@@ -162,13 +169,36 @@ class Pipeline:
         stage of the frame, the density accumulated over the run's samples; returns the final
         texture."""
         env = self.executor.frame(self.camera(frame, frames))
+        self._read = None
+        bare = self._draw_without_sprites(env) if self._unlit_check is not None else None
         for stage in self.plan.frame_stages:
             if stage.kind == "points":
                 self._density(stage, env)
             else:
                 self.executor.run(stage, env)
         self.final = self.executor.front(self.plan.present)
+        if bare is not None:
+            self._unlit_check = None
+            self._read = read_rgb(self.ctx, self.final)  # image() gives it: one read a frame
+            if np.array_equal(bare, self._read):
+                warnings.warn(f"frame {frame}: " + self.plan.rendering.unlit_message(
+                    self.settings.get("point_size", self.scene.defaults.point_size), self.size,
+                    env.camera),
+                    NothingDrawnWarning, stacklevel=2)
         return self.final
+
+    def _draw_without_sprites(self, env):
+        """The picture of ``env`` without its sprites (meshes and background): what the
+        first frame is compared with, to warn where no sprite lit a pixel. The sort's stages
+        are left out (their place in a spread sort moves on with each run)."""
+        sprites = self._unlit_check
+        before = self.plan.frame_stages[:self.plan.frame_stages.index(sprites)]
+        for stage in before:
+            if stage.kind not in ("sort key", "sort merge"):
+                self.executor.run(stage, env)
+        if not any(s.target == sprites.target for s in before):
+            self.executor.clear(sprites)
+        return read_rgb(self.ctx, self.executor.front(self.plan.present))
 
     def density(self):
         """Draw this step's density (and, accumulating, the next ``accumulate - 1`` steps') into
@@ -207,6 +237,8 @@ class Pipeline:
         """The last rendered frame as an (h, w, 3) uint8 array, top row first."""
         if self.final is None:
             self.render()
+        if self._read is not None:
+            return self._read.copy()
         return read_rgb(self.ctx, self.final)
 
     def picture(self):

@@ -65,6 +65,8 @@ class ActiveUniform:
 class GLDevice:
     """moderngl under a context: objects, draws, reads and writes, through one moderngl context."""
 
+    draws = True  # its pictures can be read and measured
+
     def __init__(self, mgl, backend="egl", profile="core"):
         self.mgl, self.backend, self.profile = mgl, backend, profile
         self._gl_calls = {}
@@ -313,6 +315,7 @@ class RecordingDevice:
     """
 
     backend, profile = "recording", "core"
+    draws = False  # nothing to measure in what it reads back
 
     def __init__(self, caps=None):
         self.caps = caps

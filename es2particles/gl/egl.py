@@ -78,7 +78,7 @@ def open_context(device=None):
         unique = list(dict.fromkeys(errors))  # a missing library fails both profiles alike
         failures.append(f"{backend or 'default'}: " + "; ".join(unique))
     raise ContextError("no headless OpenGL context could be made; " + INSTALL_HINT
-                       + "\n  tried: " + "\n  tried: ".join(failures))
+                       + " (tried: " + "; ".join(" ".join(f.split()) for f in failures) + ")")
 
 
 def probe_capabilities(ctx):

@@ -195,6 +195,18 @@ class Sprites(Rendering):
         return {sampler: Ref(player[q], part) for sampler, (_, q, part, _) in
                 interface.samplers.items()}
 
+    def unlit_message(self, point_size, size, camera):
+        """Why a picture of these sprites may have no lit pixel: their diameter at the camera's
+        distance from its target, from ``point_size`` (pixels of an image 1024 high), the image
+        ``size`` and the attenuation."""
+        a, b, c = self.attenuation
+        d = float(np.linalg.norm(np.subtract(camera.eye, camera.target)))
+        diameter = point_size * size[1] / 1024 / np.sqrt(a + b * d + c * d * d)
+        return (f"no sprite lit a pixel: sprites of point size {point_size:g} with attenuation "
+                f"({a:g}, {b:g}, {c:g}) are {diameter:.2g} pixels across at the camera's "
+                f"distance {d:.3g} from its target; raise the point size, lower the "
+                f"attenuation or bring the camera closer (or the particles are out of sight)")
+
     def plan(self, b, defaults):
         """Add the sort, shadow map, mesh and sprite stages to plan builder ``b``; the image is
         what the frame presents."""

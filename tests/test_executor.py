@@ -364,3 +364,67 @@ def test_executor_runs_a_plan_it_is_given(recording):
         assert sampled(call) == {"u_source": executor.resources["in"]}
         assert target_texture(call) is executor.resources["out"].fronts[0]
         assert call["uniforms"]["u_threshold"] == 0.25
+
+
+def test_a_renderer_takes_only_the_settings_its_rendering_uses(recording):
+    """A renderer draws someone else's simulation: the particles, format, steps and seed are
+    the simulation's, so giving one is refused, as is a bad value of a setting it uses, before
+    anything is drawn."""
+    from es2particles.errors import Es2ParticlesError
+    from es2particles.frame.pipeline import Renderer
+    from es2particles.render.points import Density
+
+    scene = DeJong()
+    with Simulation(recording, scene.graph(), 64) as sim:
+        with pytest.raises(ParameterError, match="particles: a renderer over a simulation"):
+            Renderer(recording, scene.rendering(), sim, size=(32, 32), particles=128)
+        with pytest.raises(ParameterError, match="gradient 'rainbowish' is unknown"):
+            Renderer(recording, Density(scene.view), sim, size=(32, 32), gradient="rainbowish")
+        renderer = Renderer(recording, Density(scene.view), sim, size=(32, 32), exposure=2.0)
+    with pytest.raises(Es2ParticlesError, match="the Simulation this Renderer draws was "
+                                                "released"):
+        renderer.draw()
+    renderer.release()
+    with pytest.raises(Es2ParticlesError, match="this Renderer was released"):
+        renderer.draw()
+
+
+def test_a_3d_scene_without_a_camera_says_so(recording):
+    from es2particles.render.sprites import Sprites
+    from es2particles.scenes import Fill, Scene
+
+    class Cloud(Scene):
+        name, renders = "cloud", Sprites
+
+        def graph(self, caps=None):
+            g = PassGraph()
+            g.quantity("position", -1, 1, components=3)
+            g.add("still", "examples/drift.frag", writes="position", reads=["position"],
+                  uniforms={"u_delta": (0.0, 0.0, 0.0)})
+            return g
+
+        def rendering(self):
+            return Sprites(roles={"position": "position"})
+
+        def start(self, count, rng):
+            return {"position": Fill(-1, 1)}
+
+    with Pipeline(recording, Cloud(), particles=16, size=(16, 16)) as pipeline:
+        with pytest.raises(GraphError, match="scene 'cloud' draws in 3D but gives no camera"):
+            next(pipeline.frames())
+
+
+def test_the_frame_loop_checks_its_frames(recording):
+    with Pipeline(recording, DeJong(), particles=16, size=(16, 16)) as pipeline:
+        with pytest.raises(ParameterError, match="frames must be in \\[1, inf\\], got 0"):
+            next(pipeline.frames(0))
+        with pytest.raises(ParameterError, match="wanted frames must lie in \\[0, 2\\], got 1..5"):
+            next(pipeline.frames(3, wanted=[1, 5]))
+
+
+def test_a_light_size_needs_a_camera():
+    from es2particles.frame.plan import frame_value
+    from es2particles.gl.context import Capabilities
+
+    with pytest.raises(ParameterError, match="'light_size' needs a camera"):
+        frame_value(("light_size", 1.0, 1.0, 0.0, 256), None, caps=Capabilities.assumed())

@@ -393,6 +393,50 @@ def test_fountain_page_orbits_and_zooms_with_the_mouse_as_the_python_camera_does
         page.close()
 
 
+class OrthoFountain(Fountain):
+    """The fountain seen through an orthographic camera whose up is +x (a camera the page must
+    carry whole: its projection and its up axis)."""
+
+    def camera_at(self, frame, frames):
+        return Camera(eye=(0.0, 3.0, 7.5), target=(0.0, 1.4, 0.0), up=(1.0, 0.0, 0.0), ortho=3.0)
+
+
+def test_page_draws_an_orthographic_camera_and_orbits_about_its_up_axis(gl, browser, tmp_path):
+    """The page's projection is the camera's (orthographic here), and a drag turns the camera
+    about the camera's own up axis through the target (+x here): the page's pictures against
+    EGL's from the cameras float64 gives (a drag of dx turns -0.01 dx radians about up, dy tilts
+    0.01 dy towards it)."""
+    scene = OrthoFountain()
+    steps = scene.defaults.steps
+    base = scene.camera_at(0, 1)
+    state, still, _ = egl_state(gl, scene, steps)
+    page = web_page(browser, tmp_path, scene, state, steps)
+    try:
+        compare_images(still, page.image(SIZE_3D), "orthographic, up +x")
+        box = page.page.locator("#view").bounding_box()
+        x, y = box["x"] + 100, box["y"] + 100
+        page.page.mouse.move(x, y)
+        page.page.mouse.down()
+        page.page.mouse.move(x + 80, y + 20, steps=4)
+        page.page.mouse.up()
+        page.call("frame()")
+        turned = page.image(SIZE_3D)
+    finally:
+        page.close()
+    up = np.array(base.up) / np.linalg.norm(base.up)
+    offset = np.subtract(base.eye, base.target)
+    radius, height = np.linalg.norm(offset), offset @ up
+    along = (offset - height * up) / np.linalg.norm(offset - height * up)
+    side = np.cross(up, along)
+    a, e = -0.01 * 80, np.arcsin(height / radius) + 0.01 * 20
+    eye = np.add(base.target, radius * (np.cos(e) * (np.cos(a) * along + np.sin(a) * side)
+                                        + np.sin(e) * up))
+    want_camera = Camera(eye=tuple(eye), target=base.target, up=base.up, ortho=base.ortho)
+    _, want, _ = egl_state(gl, scene, steps, want_camera)
+    assert np.abs(turned.astype(int) - still.astype(int)).mean() > 3, "the drag moved nothing"
+    compare_images(want, turned, "after a drag of (80, 20) pixels about +x")
+
+
 def test_3d_page_runs_on_its_own_as_a_user_sees_it(browser, tmp_path, gl):
     """The page as written by the command, warm-up and all: it draws the scene (a picture with
     smoke over the floor), asks nothing of the network, and its picture after the warm-up is

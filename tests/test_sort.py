@@ -1,4 +1,4 @@
-"""Back-to-front sorting on the GPU (es2particles/sort.py) against independent numpy references:
+"""Back-to-front sorting on the GPU (es2particles/render/sort.py) against independent numpy references:
 the network's schedule against np.sort and the textbook loop, the GPU network against numpy's
 stable argsort and against its numpy twin pass by pass, the key pass against float64 view depths,
 the decoding of lib/order.glsl in a vertex shader, spreading the passes over frames, and the

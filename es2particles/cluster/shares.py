@@ -8,7 +8,7 @@ every pixel: whole numbers, exact in its float32 target while a pixel gets fewer
 share of 2^22 points reaches that only with --accumulate 4 or more on a collapsed attractor, which
 is refused). Counts add up in float64, exactly to 2^53, so their sum is the same in any order and
 any grouping: one process adding the shares one by one and a cluster adding groups of them as its
-tasks finish (``cluster.py``) write the same bytes. The sum, times --intensity, is tone-mapped once.
+tasks finish (``cluster/tasks.py``) write the same bytes. The sum, times --intensity, is tone-mapped once.
 
 2^34 particles are 4096 shares; a share of 2^22 takes ~0.4 s reseeded and ~1.7 s stateful (20
 steps) on llvmpipe here.

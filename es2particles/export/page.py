@@ -270,7 +270,7 @@ def _camera(camera):
     if camera is None:
         return None
     return {"eye": list(camera.eye), "target": list(camera.target), "up": list(camera.up),
-            "fov": camera.fov, "near": camera.near, "far": camera.far}
+            "fov": camera.fov, "near": camera.near, "far": camera.far, "ortho": camera.ortho}
 
 
 def _motion(motion):

@@ -241,6 +241,7 @@ class Executor:
         self.group.release()
         self.group = None
         self.resources, self.buffers, self.commands, self._swapped = {}, {}, {}, []
+        self.external = {}  # borrowed, never released here: let go of them too
 
     def __enter__(self):
         return self

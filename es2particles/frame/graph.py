@@ -4,7 +4,7 @@ Pure Python, no GL: a :class:`Plan` says which passes run in which order, which 
 textures (two for ping-pong where last step's value is read, one where only this step's is; a
 quantity of three or four components in RGBA8 has two parts, each written by its own draw), which
 scene textures are sampled, and what was left out because the requested outputs do not need it.
-``simulation.py`` executes a plan.
+``executor.py`` runs a plan (under a ``Simulation`` or a ``Pipeline``).
 
 Reads are explicit about time, because the same name means two values during a step:
 

@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import NothingDrawnWarning, ParameterError
+from ..errors import Es2ParticlesError, NothingDrawnWarning, ParameterError, check_range
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
 from .settings import DEFAULT, Defaults, FrameSettings, parse_size
@@ -70,7 +70,7 @@ class Pipeline:
     scene : Scene
     particles, size, fmt, point_size, intensity, exposure, gradient, bloom, seed, rounding,
     steps, accumulate, share
-        The :class:`~es2particles.frame.plan.FrameSettings` (``fmt`` is its ``format``), as
+        The :class:`~es2particles.frame.settings.FrameSettings` (``fmt`` is its ``format``), as
         keywords; or ``settings``, a FrameSettings. ``gradient`` None is grey and ``bloom``
         None is off; any other None is the default. ``accumulate``: samples summed into each
         image of a density scene (the particles' density after this step and after each of the
@@ -130,8 +130,11 @@ class Pipeline:
         nothing before them, so only those are drawn; any other scene's frames need every step
         and frame before them, so those up to the last wanted one are run and only the wanted
         ones yielded."""
-        frames = int(frames)
+        frames = int(check_range("frames", frames, 1, None, integer=True))
         wanted = range(frames) if wanted is None else sorted(wanted)
+        if len(wanted) and not 0 <= wanted[0] <= wanted[-1] < frames:
+            raise ParameterError(f"wanted frames must lie in [0, {frames - 1}], got "
+                                 f"{wanted[0]}..{wanted[-1]}")
         sim, scene = self.sim, self.scene
         self.begin(frames, warm_up)
         visit = wanted if scene.stateless else range((wanted[-1] + 1) if len(wanted) else 0)
@@ -358,7 +361,7 @@ class Renderer:
 
     ``settings`` (a FrameSettings, or keywords as :class:`Pipeline` takes them) give the size,
     point size, intensity and post settings; ``defaults`` the scene defaults (point size) where
-    a setting is left out. ``motion``: a :class:`~es2particles.render.meshes.Motion` of the moving
+    a setting is left out. ``motion``: a :class:`~es2particles.frame.motion.Motion` of the moving
     meshes (or pass ``model`` to :meth:`draw`).
     """
 
@@ -379,10 +382,17 @@ class Renderer:
         if missing:
             raise ParameterError(f"the renderer reads {', '.join(missing)}, which the "
                                  f"simulation does not hold (it holds {', '.join(sim.buffers)})")
-        unused = [n for n in settings.given() if n not in b.uses]
+        # The simulation is made: of the frame settings, a renderer takes the size and those
+        # its rendering declares (the particles, format, steps and seed are the simulation's).
+        uses = {"size", *rendering.settings}
+        unused = [n for n in settings.given() if n not in uses]
         if unused:
-            raise ParameterError(f"{', '.join(unused)}: this rendering does not use "
-                                 f"{'it' if len(unused) == 1 else 'them'} ({rendering.kind})")
+            raise ParameterError(f"{', '.join(unused)}: a renderer over a simulation does not "
+                                 f"use {'it' if len(unused) == 1 else 'them'} (it takes size and "
+                                 f"{', '.join(rendering.settings) or 'nothing else'}: "
+                                 f"{rendering.kind})")
+        rendering.check_settings({n: getattr(settings, n) for n in settings.given()
+                                  if n in rendering.settings})
         present = rendering.plan(b, defaults or Defaults())
         self.plan = b.finish(present=present, size=b.size, motion=motion)
         self.size = b.size
@@ -393,6 +403,11 @@ class Renderer:
         """Draw the frame seen from ``camera`` (3D), the moving meshes placed by ``model`` (a 4x4
         matrix; default the motion after the simulation's steps); ``clear`` False keeps the
         density target's sum (accumulation). Returns the presented texture."""
+        if self.executor is None:
+            raise Es2ParticlesError("this Renderer was released; make a new one")
+        if self.sim.executor is None:
+            raise Es2ParticlesError("the Simulation this Renderer draws was released: release "
+                                    "the renderer first, or draw before the simulation goes")
         env = self.executor.frame(camera, model, self.sim.steps_done)
         for stage in self.plan.frame_stages:
             self.executor.run(stage, env, clear=clear or stage.kind != "points")

@@ -193,16 +193,17 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
         return float(step)
     if name == "model":
         return IDENTITY if model is None else model
-    if name in ("sprite_size", "light_size"):
+    if name == "sprite_size":
         lo, hi = caps.point_size_range
-        if name == "sprite_size":
-            pixels, spread = args
-            return (float(pixels), float(spread), float(lo), float(hi))
+        pixels, spread = args
+        return (float(pixels), float(spread), float(lo), float(hi))
+    if camera is None:
+        raise ParameterError(f"frame value {name!r} needs a camera: this scene has none")
+    if name == "light_size":
+        lo, hi = caps.point_size_range
         per_focal, light_focal, spread, height = args
         world = per_focal / camera.focal_pixels(height)
         return (float(world * light_focal), float(spread), float(lo), float(hi))
-    if camera is None:
-        raise ParameterError(f"frame value {name!r} needs a camera: this scene has none")
     if name == "view_projection":
         return camera.uniform(aspect)
     if name == "eye":
@@ -229,7 +230,7 @@ class FramePlan:
     (``format_note`` says why) and ``rounding`` of the state; ``steps``, run before the first
     frame; ``accumulate``, samples summed into each image; ``camera``: a function of (frame,
     frames) giving the frame's camera (None for 2D); ``motion``: the moving object's
-    :class:`~es2particles.render.meshes.Motion` (None where nothing moves)."""
+    :class:`~es2particles.frame.motion.Motion` (None where nothing moves)."""
 
     scene: str
     layout: Layout
@@ -266,9 +267,6 @@ class FramePlan:
                 return s
         raise GraphError(f"the plan has no stage {name!r} (stages: "
                          f"{', '.join(s.name for s in self.stages)})")
-
-    def stages_of(self, kind):
-        return [s for s in self.stages if s.kind == kind]
 
     def describe(self, measured=()):
         """The plan as lines: the simulation step's passes and state textures, the frame's

@@ -175,7 +175,7 @@ BUILT_IN = {"u_state_size": "the built-in u_state_size", "u_count": "the built-i
 def generated_values(interface, layout):
     """The values of what the generated lines declare for a state ``layout``: the quantities'
     ranges, ``u_state_size`` and ``u_count`` (set on EGL by the commands and renderers, written
-    into a WebGL page by ``export.py``)."""
+    into a WebGL page by ``export/page.py``)."""
     return {**interface.fixed, "u_state_size": (float(layout.width), float(layout.height)),
             "u_count": float(layout.count)}
 

@@ -25,7 +25,7 @@ skipped, not an error.
 import re
 
 from ..errors import ParameterError
-from .bindings import compile_checked, declared_names, generated_values, strip_comments
+from .bindings import compile_checked, declared_names, strip_comments
 from .context import ProgramValues
 from .device import PRIMITIVES, DrawState
 from .shaders import GENERATED, expand
@@ -108,10 +108,6 @@ class DrawCommand:
         """True if ``name`` is an active uniform of the program."""
         return name in self.active
 
-    def uses(self, name):
-        """True if the shader's own code (not the generated lines) refers to ``name``."""
-        return name in self.referenced
-
     def set(self, name, value):
         """Set uniform ``name``: declared and used by the shader, else an error."""
         if self.declared.get(name) == "sampler2D":
@@ -139,13 +135,6 @@ class DrawCommand:
     def set_many(self, uniforms):
         for name, value in uniforms.items():
             self.set(name, value)
-
-    def set_generated(self, interface, layout):
-        """Set what a generated interface declares for a state ``layout``: the quantities'
-        ranges, ``u_state_size`` and ``u_count`` (each where the driver kept it)."""
-        for name, value in generated_values(interface, layout).items():
-            if self.has(name):
-                self.values.set(name, value)
 
     def check_fed(self, samplers):
         """Raise unless ``samplers`` (names) covers every sampler the program uses and names no

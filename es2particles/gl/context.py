@@ -54,7 +54,7 @@ class Capabilities:
     def assumed(cls, **changes):
         """Capabilities stated rather than probed: llvmpipe's figures on this project's machines
         (every format renderable and blendable, ASTC listed), for plans made with no context
-        (``es2particles plan`` without a GL driver, a recording device's tests); ``changes``
+        (the WebGL export's checks, a recording device's tests); ``changes``
         override any field."""
         formats = {name: True for name in TEXTURE_FORMATS}
         values = dict(backend="assumed", profile="core", vendor="assumed", renderer="assumed",
@@ -81,7 +81,8 @@ class Capabilities:
     @property
     def software_rasteriser(self):
         """True for a CPU rasteriser that bins a whole draw before rasterising it (llvmpipe,
-        softpipe): large point draws are cut into slices there (see render.py)."""
+        softpipe): large point draws are cut into slices there (a stage's ``slice``,
+        frame/executor.py)."""
         return any(name in self.renderer.lower() for name in ("llvmpipe", "softpipe", "swrast"))
 
     def lines(self):

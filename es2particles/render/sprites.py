@@ -7,7 +7,7 @@ textures, its size attenuated with the eye distance and clamped to the driver's 
 a sprite texture over ``gl_PointCoord`` mixed with a tint, alpha falling with age, blended
 additively or "over" (premultiplied), depth-tested against the meshes with depth writes off, so a
 particle behind the cube is hidden and particles never hide each other. Sorting back to front
-(``sort.py``) and an opacity shadow map (``shadow.py``) are stages of the same plan.
+(``render/sort.py``) and an opacity shadow map (``render/shadow.py``) are stages of the same plan.
 """
 
 from dataclasses import dataclass, replace
@@ -109,7 +109,7 @@ class Sprites(Rendering):
     sort : None, "full" or int
         Draw order: None, the particles' texel order; ``"full"``, back to front, sorted by the
         whole sorting network every frame; k, k merge passes per frame, the order converging
-        over frames as the particles move (``sort.py``). Order matters for ``over``.
+        over frames as the particles move (``render/sort.py``). Order matters for ``over``.
     shadow : shadow.OpacityShadow or None
         Self-shadowing by an opacity shadow map seen from its light; needs attenuation
         (0, 0, c), so that a sprite has one world size.

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import GraphError, ParameterError
 from ..frame.settings import Defaults
 from ..render.points import Density
 from ..params import Params
@@ -25,7 +25,7 @@ from ..params import Params
 
 @dataclass(frozen=True)
 class Control:
-    """A slider of the scene's WebGL page (``export.py``): component ``component`` of uniform
+    """A slider of the scene's WebGL page (``export/page.py``): component ``component`` of uniform
     ``uniform`` (which the scene's passes declare), from ``lo`` to ``hi``."""
 
     label: str
@@ -62,7 +62,7 @@ class Scene:
     positions_repeat = False
     # True where each step starts afresh (reseeded scenes): a frame depends on its own uniforms
     # alone, so the frames of an animation can be made apart, each without the ones before it
-    # (cluster.py); otherwise a frame needs every step and frame before it.
+    # (cluster/tasks.py); otherwise a frame needs every step and frame before it.
     stateless = False
 
     def __init__(self, params=None, **given):
@@ -146,10 +146,11 @@ class Scene:
 
     def camera_at(self, frame, frames):
         """The :class:`~es2particles.render.camera.Camera` of frame ``frame`` of ``frames``."""
-        raise NotImplementedError
+        raise GraphError(f"scene {self.name or type(self).__name__!r} draws in 3D but gives no "
+                         "camera: define camera_at(frame, frames) returning a Camera")
 
     def motion(self):
-        """The :class:`~es2particles.render.meshes.Motion` of the moving meshes (rest pose to
+        """The :class:`~es2particles.frame.motion.Motion` of the moving meshes (rest pose to
         world over time), or None where nothing moves."""
         return None
 

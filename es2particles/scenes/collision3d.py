@@ -300,7 +300,7 @@ class Collision3D(Emitter):
 
     def measured(self, ctx):
         """The compression table: memory per object, and the collision error each format costs
-        over a fixed run of this scene's field (see report/compression.py)."""
+        over a fixed run of this scene's field (see field_compression.py)."""
         from ..gl import astc
         from . import field_compression as compression
 

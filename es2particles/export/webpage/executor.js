@@ -363,17 +363,25 @@
     const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                              a[0] * b[1] - a[1] * b[0]];
     const unit = (a) => { const n = Math.hypot(...a); return a.map((v) => v / n); };
-    const offset = sub(c.eye, c.target);
+    // The mouse orbits about the camera's up axis through the target: azimuth from the eye's
+    // first direction across that axis (along), elevation towards the axis.
+    const offset = sub(c.eye, c.target), radius = Math.hypot(...offset);
+    const up = unit(c.up), height = dot(offset, up);
+    let level = sub(offset, up.map((v) => v * height));
+    if (Math.hypot(...level) < 1e-9 * radius) {  // looking along the up axis: any side will do
+      level = cross(up, Math.abs(up[0]) < 0.9 ? [1, 0, 0] : [0, 0, 1]);
+    }
+    const along = unit(level), side = cross(up, along);
     const state = {
-      moved: false, radius: Math.hypot(...offset),
-      azimuth: Math.atan2(offset[0], offset[2]),
-      elevation: Math.asin(offset[1] / Math.hypot(...offset)),
+      moved: false, radius, azimuth: 0,
+      elevation: Math.asin(Math.max(-1, Math.min(1, height / radius))),
     };
     function eye() {
       if (!state.moved) return c.eye;
       const r = state.radius, e = state.elevation, a = state.azimuth;
-      return [c.target[0] + r * Math.cos(e) * Math.sin(a), c.target[1] + r * Math.sin(e),
-              c.target[2] + r * Math.cos(e) * Math.cos(a)];
+      return c.target.map((t, i) => t + r * (Math.cos(e) * (Math.cos(a) * along[i]
+                                                             + Math.sin(a) * side[i])
+                                             + Math.sin(e) * up[i]));
     }
     function forward() { return unit(sub(c.target, eye())); }
     function focal(h) { return h / 2 / Math.tan(c.fov * Math.PI / 360); }
@@ -381,9 +389,17 @@
       const e = eye(), f = forward(), s = unit(cross(f, c.up)), u = cross(s, f);
       const view = [[...s, -dot(s, e)], [...u, -dot(u, e)], [-f[0], -f[1], -f[2], dot(f, e)],
                     [0, 0, 0, 1]];
-      const t = 1 / Math.tan(c.fov * Math.PI / 360), n = c.near, far = c.far;
-      const p = [[t / aspect, 0, 0, 0], [0, t, 0, 0],
-                 [0, 0, (far + n) / (n - far), 2 * far * n / (n - far)], [0, 0, -1, 0]];
+      const n = c.near, far = c.far;
+      let p;
+      if (c.ortho == null) {
+        const t = 1 / Math.tan(c.fov * Math.PI / 360);
+        p = [[t / aspect, 0, 0, 0], [0, t, 0, 0],
+             [0, 0, (far + n) / (n - far), 2 * far * n / (n - far)], [0, 0, -1, 0]];
+      } else {  // orthographic: a half-height in world units, scaled as the wheel zooms
+        const h = c.ortho * state.radius / radius;
+        p = [[1 / (h * aspect), 0, 0, 0], [0, 1 / h, 0, 0],
+             [0, 0, -2 / (far - n), -(far + n) / (far - n)], [0, 0, 0, 1]];
+      }
       const out = [];
       for (let col = 0; col < 4; col += 1) {
         for (let row = 0; row < 4; row += 1) {
@@ -417,7 +433,7 @@
     };
   })();
 
-  // The moving object's model matrix after `step` steps (render/meshes.py: Motion), column-major.
+  // The moving object's model matrix after `step` steps (frame/motion.py: Motion), column-major.
   function model(step) {
     const m = plan.motion;
     const t = step * m.dt;

@@ -1,5 +1,5 @@
 #version 100
-// The exact density of a WebGL page with no blendable float target (es2particles/export.py):
+// The exact density of a WebGL page with no blendable float target (es2particles/export/page.py):
 // points are drawn in batches into u_batch, an RGBA8 (or half-float) target whose four channels
 // each take a quarter of the batch, every hit adding u_hit (1/255: one code; or 1.0); this pass
 // adds the batch's hits to the running whole count in u_total (lib/counts.glsl), ping-ponged.

@@ -1,11 +1,11 @@
-// The slots of a sort order (es2particles/sort.py): one texel per slot, each holding a sort key
+// The slots of a sort order (es2particles/render/sort.py): one texel per slot, each holding a sort key
 // and a particle index. Pure arithmetic on texels, so it compiles in vertex and fragment shaders
 // alike: the sorting passes encode and compare slots with it, and a renderer's vertex shader
 // decodes its i-th slot into the particle to draw (order_particle_uv). Include it after a
 // `precision highp float` statement: every value below is an integer below 2^24, exact in highp
 // (float32), and meaningless in mediump.
 //
-// Two formats (the numpy twin and the full story: es2particles/sort.py):
+// Two formats (the numpy twin and the full story: es2particles/render/sort.py):
 // - RGBA8 (the ES 2.0 baseline): one 32-bit word = key * 2^B + index over the four bytes, R and
 //   G the high 16 bits, B and A the low 16. B index bits, 32 - B key bits. ORDER_HIGH_MOD is
 //   2^max(B - 16, 0) (the index bits held in the high half), ORDER_LOW_MOD 2^min(B, 16) (those in

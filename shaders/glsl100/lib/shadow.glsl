@@ -1,11 +1,11 @@
 // The opacity shadow map (Kim and Neumann 2001, as the Mali smoke sample): the particles seen from
 // the light, their opacity summed per layer of depth into one RGBA texture, layer k in channel k
-// (four layers, one render target, one pass: es2particles/shadow.py, sprites/shadow.vert). A
+// (four layers, one render target, one pass: es2particles/render/shadow.py, sprites/shadow.vert). A
 // particle is lit by exp(-extinction * the opacity in front of it): the layers nearer the light
 // whole, and of its own layer the share in front of it (the layer's opacity taken as evenly
 // spread through its depth), less its own sprite's share there (it does not shade itself),
 // above an ambient floor. For vertex shaders (the map is fetched once per particle); numpy twin:
-// es2particles/shadow.py, light_through(). Include lib/sprite.glsl first.
+// es2particles/render/shadow.py, light_through(). Include lib/sprite.glsl first.
 uniform mat4 u_light_view_projection;
 uniform vec3 u_light_eye;
 uniform vec4 u_light_axis;  // the light's unit viewing direction, and the depth of layer 0's front

@@ -1,5 +1,5 @@
 #version 100
-// The last post stage's image onto a WebGL page's canvas (es2particles/export.py): a copy.
+// The last post stage's image onto a WebGL page's canvas (es2particles/export/page.py): a copy.
 precision mediump float;
 
 varying vec2 v_uv;

@@ -1,5 +1,5 @@
 #version 100
-// The key pass of depth sorting (es2particles/sort.py: DepthSorter): each slot keeps the particle
+// The key pass of depth sorting (es2particles/render/sort.py: DepthSorter): each slot keeps the particle
 // it held in the previous order and gets that particle's key for this frame, so the sorting passes
 // start from last frame's order, nearly sorted (re-keying the permutation, as Latta 2004 does).
 // The key puts the far particles first: the view depth d = dot(p - eye, forward) gives

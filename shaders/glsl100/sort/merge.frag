@@ -1,5 +1,5 @@
 #version 100
-// One pass of Batcher's odd-even merge sort over the slots of a sort order (es2particles/sort.py):
+// One pass of Batcher's odd-even merge sort over the slots of a sort order (es2particles/render/sort.py):
 // the pass of merge size u_p and comparator distance u_k. Each fragment is one slot x; a
 // comparator joins slots a and a + k where, with c = k mod p,
 //     a >= c,  (a - c) mod 2k < k,  and a and a + k lie in one block of 2p slots.

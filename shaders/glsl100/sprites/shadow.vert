@@ -3,7 +3,7 @@
 // size (u_light_size.x over its distance from the light, times the sprites' own size factor:
 // lib/sprite.glsl; the image's sprites shrink with their distance from the eye alike),
 // adding its opacity (faded with age, as the sprites) to the channel of its depth layer, with
-// additive blending (lib/shadow.glsl; es2particles/shadow.py).
+// additive blending (lib/shadow.glsl; es2particles/render/shadow.py).
 attribute vec2 a_texel;
 varying vec4 v_opacity;
 #include "lib/sprite.glsl"

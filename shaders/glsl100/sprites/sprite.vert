@@ -10,9 +10,9 @@
 // drawn (without it every particle is alive at age 0); SIZE: read_size(), a factor of the size;
 // COLOUR: read_colour(), the particle's tint. They and the uniforms are declared by the renderer
 // (es2particles/gl/bindings.py).
-// SORTED: vertex i draws the particle in slot i of the order texture (es2particles/sort.py), so
+// SORTED: vertex i draws the particle in slot i of the order texture (es2particles/render/sort.py), so
 // the sprites are drawn back to front. SHADOWED: the light reaching the particle through the
-// opacity shadow map (es2particles/shadow.py, lib/shadow.glsl) shades it.
+// opacity shadow map (es2particles/render/shadow.py, lib/shadow.glsl) shades it.
 attribute vec2 a_texel;
 uniform mat4 u_view_projection;
 varying float v_alpha;

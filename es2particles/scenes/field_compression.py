@@ -51,7 +51,8 @@ def memory_rows(resolutions=(64, 128, 256)):
 
 def _run(ctx, scene, count, steps):
     """Positions after each step (steps, count, 3) and who is alive (steps, count)."""
-    sim = Simulation(ctx, scene.graph(), count, outputs=("position", "life"), fmt="rgba32f")
+    sim = Simulation(ctx, scene.graph(ctx.caps), count, outputs=("position", "life"),
+                     fmt="rgba32f")
     try:
         scene.initialise(sim, np.random.default_rng(0))
         positions, alive = [], []

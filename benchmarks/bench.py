@@ -371,7 +371,7 @@ def smoke_section(ctx, sizes, repeats, emit):
                 lambda: (p.step(1), p.render()), repeats, finish))
         for label, options in (("frame, sort spread 8 passes", {"sort": 8}),
                                ("frame, unsorted", {"sort": "off"}),
-                               ("frame, no shadows", {"shadows": False})):
+                               ("frame, no shadows", {"shadows": "off"})):
             with Pipeline(ctx, Smoke(**options), count, SIZE) as p:
                 p.warm_up()
                 row(label, timed(lambda: (p.step(1), p.render()), repeats, finish))
@@ -392,7 +392,7 @@ def smoke_sortedness(ctx, log2n, emit, frames=45):
          "displacement | mean depth error |")
     emit("|---|---|---|---|---|---|")
     for sort in ("full", 32, 16, 8, 4, "off"):
-        scene = Smoke(sort=sort, camera="orbit", shadows=False)
+        scene = Smoke(sort=sort, camera="orbit", shadows="off")
         with Pipeline(ctx, scene, 2 ** log2n, (256, 256)) as p:
             p.warm_up()
             for frame in range(frames):

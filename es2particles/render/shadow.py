@@ -149,14 +149,15 @@ def plan_shadow(b, sprites, per_focal):
                              f"m from the light at {tuple(round(v, 3) for v in settings.light)}, "
                              f"{note}"))
     quantities = {name: q for name, q in sprites.role_quantities(b.graph_plan).items()
-                  if name in ("position", "life")}
+                  if name in ("position", "life", "size_factor")}
     interface = stage_interface(tuple(quantities), quantities, b.format, {})
     own = dict(uniforms)
     if growth != 1:
         own["u_growth"] = float(growth)
     b.stage(Stage(
         "shadow map", "shadow map", "sprites/shadow.frag", "sprites/shadow.vert",
-        {"FADE": None, **({} if growth == 1 else {"GROWTH": None})}, vertex_interface=interface,
+        {"FADE": None, **({} if growth == 1 else {"GROWTH": None}),
+         **({"SIZE": None} if "size_factor" in quantities else {})}, vertex_interface=interface,
         inputs={**sprites.role_inputs(interface), "u_sprite": Ref("sprite")},
         target=Ref("shadow map"), vertices=b.particle_texels(), primitive="points",
         count=b.layout.count, state=DrawState(blend="add", point_size=True, sprites=True),

@@ -23,7 +23,8 @@ from .meshes import plan_meshes
 BLENDS = ("add", "over")
 # The renderer's inputs: role -> (the name its shader reads it by, components, define).
 ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
-         "size": ("size", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR")}
+         "size": ("size_factor", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR"),
+         "orientation": ("orientation", (1,), "ORIENTATION")}
 
 
 # --- sprite textures --------------------------------------------------------------------------
@@ -121,7 +122,9 @@ class Sprites(Rendering):
         components, required); ``fade`` (a life clock, (age, lifetime): alpha falls with age,
         unborn and dead particles are not drawn; without it every particle is drawn whole);
         ``size`` (1 component, a factor of the sprite's size); ``colour`` (3 components, the
-        particle's tint in place of ``tint``'s colour). Default: position and fade by ``life``.
+        particle's tint in place of ``tint``'s colour); ``orientation`` (1 component: an angle in
+        radians, the sprite's texture turned counterclockwise on screen by it; a texture's
+        corners that turn out of the point's square are cut). Default: position and fade by ``life``.
     """
 
     sprite: object = "fireball"

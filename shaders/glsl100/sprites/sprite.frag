@@ -12,10 +12,24 @@ varying float v_light;
 #ifdef COLOUR
 varying vec3 v_colour;  // the particle's own tint (a COLOUR role), in place of u_tint.rgb
 #endif
+#ifdef ORIENTATION
+varying float v_angle;  // the texture turned counterclockwise on screen (an ORIENTATION role)
+#endif
 
 void main()
 {
+#ifdef ORIENTATION
+    // gl_PointCoord's t runs down the screen: this turn of it is counterclockwise on screen.
+    vec2 c = gl_PointCoord - 0.5;
+    float s = sin(v_angle), k = cos(v_angle);
+    vec2 uv = vec2(k * c.x - s * c.y, s * c.x + k * c.y) + 0.5;
+    vec4 t = texture2D(u_sprite, uv);
+    if (uv != clamp(uv, 0.0, 1.0)) {
+        t = vec4(0.0);  // a corner turned out of the texture
+    }
+#else
     vec4 t = texture2D(u_sprite, gl_PointCoord);
+#endif
     float a = t.a * v_alpha * u_opacity;
 #ifdef COLOUR
     vec3 tint = v_colour;

@@ -7,8 +7,10 @@
 // (size / threshold)^2. The renderer's inputs are roles (es2particles/render/sprites.py), each
 // read as the quantity the scene maps to it, by the role's name: read_position() always;
 // FADE: read_life(), (age, lifetime): alpha falls with age, unborn and dead particles are not
-// drawn (without it every particle is alive at age 0); SIZE: read_size(), a factor of the size;
-// COLOUR: read_colour(), the particle's tint. They and the uniforms are declared by the renderer
+// drawn (without it every particle is alive at age 0); SIZE: read_size_factor(), a factor of the
+// size (lib/sprite.glsl, so the shadow map's footprint has it too);
+// COLOUR: read_colour(), the particle's tint; ORIENTATION: read_orientation(), the angle its
+// texture turns by (sprite.frag). They and the uniforms are declared by the renderer
 // (es2particles/gl/bindings.py).
 // SORTED: vertex i draws the particle in slot i of the order texture (es2particles/render/sort.py), so
 // the sprites are drawn back to front. SHADOWED: the light reaching the particle through the
@@ -19,6 +21,9 @@ varying float v_alpha;
 varying float v_light;
 #ifdef COLOUR
 varying vec3 v_colour;
+#endif
+#ifdef ORIENTATION
+varying float v_angle;
 #endif
 #include "lib/sprite.glsl"
 #ifdef SORTED
@@ -42,11 +47,11 @@ void main()
     float d = distance(u_eye, p);
     float size = u_size.x * sprite_scale(texel, life, u_size.y)
         * sqrt(1.0 / (u_attenuation.x + u_attenuation.y * d + u_attenuation.z * d * d));
-#ifdef SIZE
-    size *= read_size(texel);
-#endif
 #ifdef COLOUR
     v_colour = read_colour(texel);
+#endif
+#ifdef ORIENTATION
+    v_angle = read_orientation(texel);
 #endif
     float fade = 1.0;
     if (size < u_fade) {

@@ -30,6 +30,7 @@ GRADIENT = "inferno"
 RESEED = False
 PARTICLES = 2 ** 20
 SIZE = (1024, 1024)
+FRAMES = 24
 
 
 def main():
@@ -39,13 +40,10 @@ def main():
         scene = DeJong(coefficients=COEFFICIENTS, reseed=RESEED, animate_to=ANIMATE_TO)
         with Pipeline(ctx, scene, PARTICLES, SIZE, gradient=GRADIENT, bloom=Bloom()) as pipeline:
             print(pipeline.plan)
-            pipeline.warm_up()
-            print("wrote", save_image(pipeline.image(), out / "dejong.png"))
             frames = []
-            for frame in range(24):
-                scene.before_frame(pipeline.sim, frame, 24)
-                pipeline.step(2)
-                pipeline.render()
+            for frame in pipeline.frames(FRAMES, steps_per_frame=2):
+                if frame == 0:
+                    print("wrote", save_image(pipeline.image(), out / "dejong.png"))
                 frames.append(pipeline.image()[::2, ::2])  # half size keeps the file small
             print("wrote", save_animation(frames, out / "dejong.webp", fps=12))
 

@@ -34,16 +34,11 @@ def main():
         still = Fountain(PARAMS)
         with Pipeline(ctx, still, PARTICLES, SIZE) as pipeline:
             print(pipeline.plan)
-            pipeline.warm_up()
+            next(pipeline.frames())
             save_image(pipeline.image(), out / "fountain.png")
         moving = Fountain(PARAMS.changed(camera="orbit"))
         with Pipeline(ctx, moving, PARTICLES, SIZE) as pipeline:
-            pipeline.warm_up()
-            frames = []
-            for frame in range(FRAMES):
-                pipeline.step(2)
-                pipeline.render(frame, FRAMES)
-                frames.append(pipeline.image())
+            frames = [pipeline.image() for _ in pipeline.frames(FRAMES, steps_per_frame=2)]
             save_animation(frames, out / "fountain.webp", fps=30)
     print(f"wrote {out / 'fountain.png'} and {out / 'fountain.webp'}")
 

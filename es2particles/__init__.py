@@ -35,4 +35,7 @@ def __dir__():
 
 
 __version__ = "0.1.0"
-__all__ = sorted(_EXPORTS)
+# The subpackages and modules (what pdoc documents, and what `import *` brings); the names above
+# are reached as attributes (`from es2particles import Pipeline`), each from its module.
+__all__ = ["errors", "params", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run",
+           "export", "cluster", "report", "cli"]

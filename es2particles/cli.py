@@ -280,7 +280,8 @@ def _add_settings(parser, scene):
             continue
         d = SETTINGS[name]
         default = scene.default_text(name) if name in scene_defaults else None
-        metavar = d.metavar or ("{" + ",".join(d.choices) + "}" if d.choices else "X")
+        metavar = d.metavar or ("{" + ",".join(d.choices) + "}" if d.choices else
+                                ("N" if d.integer else "X"))
         parser.add_argument(d.flag_name, dest=name, default=None, metavar=metavar,
                             help=d.help_text(default_text=default))
 

@@ -18,7 +18,6 @@ import pytest
 from es2particles import open_context
 
 TEST_SHADERS = Path(__file__).parent / "shaders"
-OUT = Path(__file__).resolve().parent.parent / "out" / "tests"
 
 
 def pytest_collection_modifyitems(config, items):

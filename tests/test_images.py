@@ -2,7 +2,6 @@
 
 import numpy as np
 
-from conftest import OUT
 from masks import dilate
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.post import Bloom
@@ -15,13 +14,15 @@ def render(ctx, gradient="inferno", bloom=None, particles=2 ** 18, size=(256, 25
         return p.image()
 
 
-def save_diff(name, a, b):
-    """On failure, leave the two images and their difference under out/tests for a person."""
+def save_diff(folder, name, a, b):
+    """On failure, leave the two images and their difference in the test's temporary
+    ``folder`` for a person (pytest keeps the last runs' folders; the path is printed)."""
     from PIL import Image
 
-    OUT.mkdir(parents=True, exist_ok=True)
     diff = np.abs(a.astype(int) - b.astype(int)).clip(0, 255).astype(np.uint8)
-    Image.fromarray(np.concatenate([a, b, diff], axis=1)).save(OUT / f"{name}.png")
+    path = folder / f"{name}.png"
+    Image.fromarray(np.concatenate([a, b, diff], axis=1)).save(path)
+    print(f"the two images and their difference: {path}")
 
 
 def test_image_is_the_right_size_not_blank_not_saturated(gl):
@@ -47,11 +48,11 @@ def test_grey_and_gradient_maps(gl):
         assert np.ptp(colours, axis=0).max() <= 2
 
 
-def test_bloom_spreads_light_around_bright_regions_and_zero_bloom_changes_nothing(gl):
+def test_bloom_spreads_light_around_bright_regions_and_zero_bloom_changes_nothing(gl, tmp_path):
     plain = render(gl, bloom=None)
     zero = render(gl, bloom=Bloom(intensity=0.0))
     if not np.array_equal(plain, zero):
-        save_diff("bloom_zero", plain, zero)
+        save_diff(tmp_path, "bloom_zero", plain, zero)
     assert np.array_equal(plain, zero), "bloom of intensity 0 must equal no bloom"
     bloomed = render(gl, bloom=Bloom(threshold=0.3, radius=3, intensity=2.0))
     assert np.all(bloomed.astype(int) >= plain.astype(int) - 1), "bloom only adds light"

@@ -5,4 +5,4 @@ charts. Tooling around the engine, not part of it: ``measure.py`` (timings and e
 
 from .document import run
 
-__all__ = ["run"]
+__all__ = ["run", "document", "measure", "stability", "charts"]

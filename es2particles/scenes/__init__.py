@@ -22,7 +22,10 @@ _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene
             "DeJong": "dejong", "Clifford": "clifford", "Collision": "collision",
             "Fountain": "fountain", "Collision3D": "collision3d", "Smoke": "smoke"}
 
-__all__ = sorted(_EXPORTS) + ["installed_scenes", "scene_class", "ENTRY_POINT_GROUP"]
+# The modules (what pdoc documents); the classes above are reached as attributes.
+__all__ = ["base", "attractor", "dejong", "clifford", "emitter", "collision", "fountain",
+           "collision3d", "smoke", "field_compression", "installed_scenes", "scene_class",
+           "ENTRY_POINT_GROUP", "BUILT_IN"]
 
 
 def __getattr__(name):

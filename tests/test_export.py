@@ -349,6 +349,19 @@ def test_3d_page_draws_and_steps_as_egl_does(gl, browser, tmp_path, scene):
         page.close()
 
 
+def drag(page, dx, dy):
+    """Drag the mouse across the page's canvas by (dx, dy) pixels from a point inside it, then
+    draw a frame; returns where the drag started."""
+    box = page.page.locator("#view").bounding_box()
+    x, y = box["x"] + 100, box["y"] + 100
+    page.page.mouse.move(x, y)
+    page.page.mouse.down()
+    page.page.mouse.move(x + dx, y + dy, steps=4)
+    page.page.mouse.up()
+    page.call("frame()")
+    return x, y
+
+
 def test_fountain_page_orbits_and_zooms_with_the_mouse_as_the_python_camera_does(
         gl, browser, tmp_path):
     """A drag on the canvas turns the camera about its target, the wheel moves it nearer or
@@ -372,13 +385,7 @@ def test_fountain_page_orbits_and_zooms_with_the_mouse_as_the_python_camera_does
     page = web_page(browser, tmp_path, scene, state, steps)
     try:
         before = page.image(SIZE_3D)
-        box = page.page.locator("#view").bounding_box()
-        x, y = box["x"] + 100, box["y"] + 100
-        page.page.mouse.move(x, y)
-        page.page.mouse.down()
-        page.page.mouse.move(x + 120, y + 30, steps=4)
-        page.page.mouse.up()
-        page.call("frame()")
+        x, y = drag(page, 120, 30)
         turned = page.image(SIZE_3D)
         assert np.abs(turned.astype(int) - before.astype(int)).mean() > 5, "the drag moved nothing"
         _, want, _ = egl_state(gl, scene, steps, camera(120, 30))
@@ -413,13 +420,7 @@ def test_page_draws_an_orthographic_camera_and_orbits_about_its_up_axis(gl, brow
     page = web_page(browser, tmp_path, scene, state, steps)
     try:
         compare_images(still, page.image(SIZE_3D), "orthographic, up +x")
-        box = page.page.locator("#view").bounding_box()
-        x, y = box["x"] + 100, box["y"] + 100
-        page.page.mouse.move(x, y)
-        page.page.mouse.down()
-        page.page.mouse.move(x + 80, y + 20, steps=4)
-        page.page.mouse.up()
-        page.call("frame()")
+        drag(page, 80, 20)
         turned = page.image(SIZE_3D)
     finally:
         page.close()

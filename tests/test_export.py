@@ -438,6 +438,29 @@ def test_page_draws_an_orthographic_camera_and_orbits_about_its_up_axis(gl, brow
     compare_images(want, turned, "after a drag of (80, 20) pixels about +x")
 
 
+def test_page_sizes_sprites_by_the_jogl_law_as_the_camera_moves(gl, browser, tmp_path):
+    """--size-law jogl: the page computes the sprites' one size a frame from its own camera's xz
+    distance, as EGL does from the same camera (a wheel of 400 moves it e^0.4 farther)."""
+    scene = Fountain(size_law="jogl")
+    steps = scene.defaults.steps
+    base = scene.camera_at(0, 1)
+    state, still, _ = egl_state(gl, scene, steps)
+    page = web_page(browser, tmp_path, scene, state, steps)
+    try:
+        compare_images(still, page.image(SIZE_3D), "jogl law, the scene's camera")
+        box = page.page.locator("#view").bounding_box()
+        page.page.mouse.move(box["x"] + 100, box["y"] + 100)
+        page.page.mouse.wheel(0, 400)
+        page.call("frame()")
+        zoomed = page.image(SIZE_3D)
+    finally:
+        page.close()
+    eye = np.add(base.target, np.exp(0.4) * np.subtract(base.eye, base.target))
+    _, want, _ = egl_state(gl, scene, steps, Camera(eye=tuple(eye), target=base.target,
+                                                    fov=base.fov))
+    compare_images(want, zoomed, "jogl law, a wheel of 400")
+
+
 def test_3d_page_runs_on_its_own_as_a_user_sees_it(browser, tmp_path, gl):
     """The page as written by the command, warm-up and all: it draws the scene (a picture with
     smoke over the floor), asks nothing of the network, and its picture after the warm-up is

@@ -101,6 +101,33 @@ def test_sprites_land_where_the_float64_projection_puts_them_at_the_attenuated_s
         assert diameter - 4 <= width <= diameter + 1
 
 
+@pytest.mark.parametrize("law", ["perspective", "jogl"])
+def test_sprite_sizes_follow_the_chosen_law_at_three_camera_distances(gl, law):
+    """A sprite at the fountain's base seen from 2.5, 5 and 10 units: perspective sizes go as
+    1 / d (attenuation (0, 0, 1 / 5^2)), the JOGL seed's as 1 / d^2 of the xz distance (its
+    scalePointSize: the size over the squared distance as a fraction of the first, 5). The disc's
+    alpha is s^2 (3 - 2 s), s = 1 - r: it is lit (over 8 of 255) to the radius where that is
+    8/255, a share of the size solved here in float64; pixels round it by a pixel or two."""
+    pixels = 24.0  # at distance 5, in the 256-pixel image
+    s = np.linspace(0, 1, 100001)
+    lit_share = 1 - s[np.argmax(s * s * (3 - 2 * s) > 8 / 255)]
+    widths = []
+    for d in (2.5, 5.0, 10.0):
+        camera = Camera(eye=(0.0, 1.0, d), target=(0.0, 1.0, 0.0))
+        options = ({"attenuation": (0.0, 0.0, 1 / 25.0)} if law == "perspective" else
+                   {"size_law": "jogl", "law_anchor": (0.0, 0.0), "law_distance": 5.0})
+        image = sprite_frame(gl, np.array([[0.0, 1.0, 0.0]]), camera,
+                             point_size=pixels * 1024 / 256, **options)
+        lit = np.argwhere(image[..., 0] > 8)
+        width = np.ptp(lit[:, 1]) + 1
+        size = pixels * (5.0 / d if law == "perspective" else (5.0 / d) ** 2)
+        widths.append(width)
+        print(f"{law}: camera at {d:g}: size {size:.1f} px, lit width {width} px (expected "
+              f"{lit_share * size:.1f})")
+        assert abs(width - lit_share * size) <= 2
+    print(f"{law}: widths {widths} at 2.5, 5, 10")
+
+
 def test_sprite_size_is_clamped_to_the_point_size_range(gl):
     top = gl.caps.point_size_range[1]
     image = sprite_frame(gl, np.array([[0.0, 1.0, 0.0]]), CAMERA, size=(512, 512),

@@ -60,7 +60,8 @@ PAGE_CAPS = Capabilities.assumed(
     blendable=dict(_FLOATS))
 # The frame values that depend on the camera: a page computes them from its own (mouse-driven)
 # camera, and takes the plan's numbers for the camera it starts with.
-CAMERA_VALUES = ("view_projection", "eye", "forward", "depth_range", "light_size")
+CAMERA_VALUES = ("view_projection", "eye", "forward", "depth_range", "light_size",
+                 "jogl_sprite_size")
 WEBPAGE = Path(__file__).resolve().parent / "webpage"
 
 

@@ -170,7 +170,7 @@ class Stage:
 # --- frame values -------------------------------------------------------------------------------
 
 FRAME_VALUES = ("step", "view_projection", "eye", "forward", "depth_range", "model",
-                "sprite_size", "light_size")
+                "sprite_size", "jogl_sprite_size", "light_size")
 
 
 def depth_range(lo, hi, camera):
@@ -199,6 +199,11 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
         return (float(pixels), float(spread), float(lo), float(hi))
     if camera is None:
         raise ParameterError(f"frame value {name!r} needs a camera: this scene has none")
+    if name == "jogl_sprite_size":  # the JOGL seed: size over the squared xz distance fraction
+        lo, hi = caps.point_size_range
+        pixels, spread, ax, az, d0 = args
+        d2 = (camera.eye[0] - ax) ** 2 + (camera.eye[2] - az) ** 2
+        return (float(pixels * d0 * d0 / max(d2, 1e-12)), float(spread), float(lo), float(hi))
     if name == "light_size":
         lo, hi = caps.point_size_range
         per_focal, light_focal, spread, height = args

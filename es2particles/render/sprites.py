@@ -22,6 +22,11 @@ from .meshes import plan_meshes
 
 BLENDS = ("add", "over")
 # The renderer's inputs: role -> (the name its shader reads it by, components, define).
+# How a sprite's size follows the camera: "perspective", size * sqrt(1 / (a + b d + c d^2)) at
+# its eye distance d (size over d for (0, 0, c)); "jogl", the JOGL seed's scalePointSize: every
+# sprite's size over the camera's squared xz distance to an anchor (the fountain's base), as a
+# fraction of its squared distance at the start, clamped to the point size range.
+SIZE_LAWS = ("perspective", "jogl")
 ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
          "size": ("size_factor", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR"),
          "orientation": ("orientation", (1,), "ORIENTATION")}
@@ -141,6 +146,9 @@ class Sprites(Rendering):
     growth: float = 1.0
     meshes: tuple = ()
     roles: object = None
+    size_law: str = "perspective"
+    law_anchor: tuple = (0.0, 0.0)
+    law_distance: float = 1.0
 
     settings = ("point_size",)
     has_camera = True
@@ -158,6 +166,20 @@ class Sprites(Rendering):
                                  f"1 / distance, as their shadows do (got {tuple(self.attenuation)})")
         check_range("opacity", self.opacity, 0.0, 1.0)
         check_range("growth", self.growth, 0.01, 100.0)
+        if self.size_law not in SIZE_LAWS:
+            raise ParameterError(f"size law must be one of {', '.join(SIZE_LAWS)}, got "
+                                 f"{self.size_law!r}")
+        if self.size_law == "jogl":
+            if self.shadow is not None:
+                raise ParameterError("the jogl size law gives every sprite one size a frame; a "
+                                     "shadow needs sprites that shrink as 1 / distance "
+                                     "(perspective)")
+            if len(self.law_anchor) != 2:
+                raise ParameterError(f"law_anchor is the x, z of the point the camera's "
+                                     f"distance is taken to, got {self.law_anchor}")
+            for v in self.law_anchor:
+                check_range("law_anchor", v)
+            check_range("law_distance", self.law_distance, 1e-6, 1e6)
         if self.sort is not None and self.sort != "full":
             check_range("sort (merge passes per frame)", self.sort, 1, 10 ** 6, integer=True)
         object.__setattr__(self, "meshes", tuple(self.meshes))
@@ -253,6 +275,10 @@ class Sprites(Rendering):
             uniforms["u_growth"] = float(self.growth)
         frame = {"u_view_projection": ("view_projection",), "u_eye": ("eye",),
                  "u_size": ("sprite_size", pixel_size, float(self.size_spread))}
+        if self.size_law == "jogl":  # one size a frame, from the camera: no attenuation
+            uniforms["u_attenuation"] = (1.0, 0.0, 0.0)
+            frame["u_size"] = ("jogl_sprite_size", pixel_size, float(self.size_spread),
+                               *map(float, self.law_anchor), float(self.law_distance))
         vertices = None
         order = "texel order"
         if self.sort is not None:

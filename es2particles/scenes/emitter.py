@@ -23,7 +23,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..render.camera import Camera, orbit
-from ..render.sprites import Sprites
+from ..render.sprites import SIZE_LAWS, Sprites
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Scene
 
@@ -70,6 +70,10 @@ class EmitterParams(Params):
     fov: float = param(45.0, 1.0, 179.0, unit="degrees", help="the camera's vertical field of view")
     blend: str = blend("add")
     sprite: str = sprite("fireball")
+    size_law: str = param("perspective", choices=SIZE_LAWS,
+                          help="how sprite sizes follow the camera: perspective (size over the "
+                               "eye distance) or jogl (the seed's: size over the camera's squared "
+                               "xz distance to the target, as a fraction of the first camera's)")
 
     def check(self):
         lo, hi = self.lifetime
@@ -163,10 +167,16 @@ class Emitter(Scene):
         # Sprite sizes are those at the declared camera's distance from its target (the seed
         # scales sizes by the camera's squared distance relative to its first): 1 / d^2
         # attenuation, so a sprite keeps its world size when --eye moves the camera.
-        default = self.Params()
+        # Under the JOGL law, sizes follow the camera's xz distance to the target as a fraction
+        # of the declared camera's.
+        p, default = self.params, self.Params()
         d0 = float(np.linalg.norm(np.subtract(default.eye, default.target)))
-        return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "blend": self.params.blend,
-                          "sprite": self.params.sprite, **self.sprites(),
+        law = {} if p.size_law == "perspective" else {
+            "size_law": "jogl", "law_anchor": (p.target[0], p.target[2]),
+            "law_distance": float(np.hypot(default.eye[0] - default.target[0],
+                                           default.eye[2] - default.target[2]))}
+        return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "blend": p.blend,
+                          "sprite": p.sprite, **self.sprites(), **law,
                           "meshes": tuple(self.meshes())})
 
 

@@ -71,6 +71,10 @@ class SmokeParams(EmitterParams):
 
     def check(self):
         super().check()
+        if self.size_law == "jogl" and self.shadows == "on":
+            raise ParameterError("--size-law jogl needs --shadows off: the seed's law gives every "
+                                 "sprite one size a frame, and a shadow map needs sprites that "
+                                 "shrink with their distance")
         if self.sort not in SORTS:
             try:
                 passes = int(self.sort)

@@ -464,6 +464,12 @@
       case "model": return plan.motion ? model(stepsDone) :
         [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
       case "sprite_size": return [spec[1], spec[2], ...pointRange];
+      case "jogl_sprite_size": {  // the JOGL seed's law: over the squared xz distance fraction
+        if (exact) return [initial[0], initial[1], ...pointRange];
+        const e = camera.eye(), dx = e[0] - spec[3], dz = e[2] - spec[4];
+        return [spec[1] * spec[5] * spec[5] / Math.max(dx * dx + dz * dz, 1e-12), spec[2],
+                ...pointRange];
+      }
       case "light_size": {
         const size = exact ? initial[0] : spec[1] / camera.focal(spec[4]) * spec[2];
         return [size, spec[3], ...pointRange];

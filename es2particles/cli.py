@@ -356,7 +356,8 @@ def run_of(args):
                                  f"{args.scene}")
     typed = {name: getattr(args, name) for name in
              ("particles", "size", "format", "rounding", "steps", "seed", "point_size",
-              "intensity", "exposure", "accumulate", "gradient") if hasattr(args, name)}
+              "intensity", "exposure", "accumulate", "gradient", "vertex_fetch")
+             if hasattr(args, name)}
     settings = {name: value if SETTINGS[name].text else SETTINGS[name].convert(
                     value, SETTINGS[name].flag_name)
                 for name, value in typed.items() if value is not None}

@@ -18,7 +18,7 @@ from es2particles.frame.plan import Ref, Rendering, Resource, Stage, plan_frame
 from es2particles.frame.settings import FrameSettings
 from es2particles.gl.command import DrawCommand
 from es2particles.render.camera import Camera
-from es2particles.scenes import Clifford, Collision3D, DeJong, Fountain, Smoke
+from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
 
 
 def draws(recording):
@@ -229,7 +229,8 @@ class Unread(Rendering):
                       target=Ref("scratch"), uniforms={"u_threshold": 0.5}))
         return present
 
-    settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate")
+    settings = ("point_size", "intensity", "exposure", "gradient", "bloom",
+                                   "accumulate", "vertex_fetch")
 
 
 class UnreadScene(DeJong):
@@ -428,3 +429,24 @@ def test_a_light_size_needs_a_camera():
 
     with pytest.raises(ParameterError, match="'light_size' needs a camera"):
         frame_value(("light_size", 1.0, 1.0, 0.0, 256), None, caps=Capabilities.assumed())
+
+
+def test_points_without_vertex_fetch_read_this_frame_s_state_back_before_drawing(recording):
+    """The attribute path: before the points draw, the front texture of each read quantity part
+    is read and written into that attribute's buffer, the one the draw's vertex array holds."""
+    with Pipeline(recording, Collision(), particles=64, size=(16, 16), steps=1,
+                  vertex_fetch="off") as pipeline:
+        next(pipeline.frames())
+        executor = pipeline.executor
+        calls = recording.device.calls
+        draw = next(i for i, c in enumerate(calls) if c.op == "draw"
+                    and c["stage"] == "points")
+        fronts = {executor.front(q): q for q in ("position", "life")}
+        reads = [c["texture"] for c in calls[:draw] if c.op == "read"][-2:]
+        writes = [c["handle"] for c in calls[:draw] if c.op == "write"][-2:]
+        assert {fronts.get(t) for t in reads} == {"position", "life"}
+        buffers = {executor.buffers[("points", a)] for a in ("a_position", "a_life")}
+        assert set(writes) == buffers
+        content = calls[draw]["vertex_array"].details["content"]
+        assert {(row[1], row[2]) for row in content} == {("4f1", "a_position"),
+                                                         ("4f1", "a_life")}

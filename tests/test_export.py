@@ -152,6 +152,27 @@ def test_reseeded_dejong_page_matches_egl_byte_for_byte(gl, browser, tmp_path, p
     assert diff.max() <= 1, (diff.mean(), diff.max())
 
 
+@pytest.mark.parametrize("path", ["float", "bytes"])
+def test_a_page_without_vertex_fetch_reads_the_state_back_and_counts_the_same(
+        gl, browser, tmp_path, path):
+    """--vertex-fetch off: the page reads the state back into vertex buffers each frame (the
+    only way on a device with no vertex texture units) and counts every pixel as EGL's fetch
+    path does; the collision scene's points read life that way too."""
+    for scene, steps in ((DeJong(reseed=True), 2), (Collision(), 60)):
+        n, size = 2 ** 16, (256, 256)
+        _, counts, _ = egl_run(gl, scene, steps, particles=n, size=size)
+        web = web_run(browser, tmp_path, scene, steps, path, particles=n, size=size,
+                      vertex_fetch="off")
+        exact = np.mean(web["density"] == counts)
+        r = np.corrcoef(web["density"].ravel(), counts.ravel())[0, 1]
+        print(f"{scene.name} {path}, read back: density exact on {exact:.3%} (r {r:.6f})")
+        assert "not used" in web["facts"]["vertex texture fetch"], web["facts"]
+        if isinstance(scene, DeJong):
+            assert exact == 1.0
+        else:  # a stateful run's dithered writes part a few texels by a code (see below)
+            assert r >= 0.99
+
+
 def test_stateful_dejong_page_draws_the_same_attractor(gl, browser, tmp_path):
     """Stateful runs round stochastically from a hash whose float arithmetic drivers may fuse
     differently, and the map is chaotic: the particles part ways within a few steps, but the

@@ -171,6 +171,7 @@ def page_plan(scene, settings=None, **given):
                  "inputs": {s: [r.resource, r.part, r.when] for s, r in stage.inputs.items()},
                  "target": [stage.target.resource, stage.target.part],
                  "vertices": stage.vertices, "primitive": stage.primitive, "count": stage.count,
+                 "attributes": {a: [ref.resource, ref.part] for a, ref in stage.attributes.items()},
                  "state": asdict(stage.state), "clear": stage.clear, "step": stage.step,
                  "uniforms": {k: _flat(v) for k, v in {**stage.generated,
                                                        **stage.uniforms}.items()},
@@ -210,6 +211,10 @@ def page_plan(scene, settings=None, **given):
             "programs": programs.sources, "density": density,
             "camera": _camera(camera), "motion": _motion(plan.motion),
             "controls": [asdict(c) for c in scene.controls()],
+            # Whether a vertex shader samples a texture (particles by vertex texture fetch):
+            # the page needs vertex texture units only then.
+            "vertex_fetch": any(s.vertex_interface is not None and s.vertex_interface.samplers
+                                for s in plan.stages),
             "plan": plan.describe()}
 
 

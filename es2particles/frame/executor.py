@@ -85,6 +85,13 @@ class Executor:
             v = self.plan.vertices[stage.vertices]
             layout = " ".join(f"{n}f" for _, n in v.attributes)
             vertices = [(self.buffers[v.name], layout, *(a for a, _ in v.attributes))]
+        if stage.attributes:  # state read back before each draw: bytes as bytes, floats as floats
+            vertices = vertices or []
+            for attribute, ref in stage.attributes.items():
+                bytes_per = 4 if self.plan.resources[ref.resource].format == "rgba8" else 16
+                buffer = self.group.buffer(bytes(stage.count * bytes_per))
+                self.buffers[(stage.name, attribute)] = buffer
+                vertices.append((buffer, "4f1" if bytes_per == 4 else "4f", attribute))
         try:
             command = DrawCommand(self.group, stage.name, stage.fragment, stage.vertex,
                                   stage.defines, stage.interface, stage.vertex_interface,
@@ -166,6 +173,8 @@ class Executor:
         textures = {s: self.texture(ref) for s, ref in stage.inputs.items()}
         framebuffer = target.framebuffer(stage.target.part)
         count = stage.count
+        for attribute, ref in stage.attributes.items():
+            self._read_back(stage, attribute, ref)
         if stage.slice is not None and count is not None and stage.slice < count:
             command.draw(framebuffer, textures, values, 0, stage.slice)
             self.ctx.flush()
@@ -183,6 +192,19 @@ class Executor:
             target = self.resources[stage.target.resource]
             self.ctx.clear(target.framebuffer(stage.target.part), stage.clear,
                            1.0 if target.depth is not None else None)
+
+    def _read_back(self, stage, attribute, ref):
+        """Read the texels of ``ref`` into the vertex buffer of ``attribute``: the first
+        ``stage.count``, in texel order (RGBA8 as its bytes; half floats widened to float32,
+        which ES 2.0 attributes take)."""
+        fmt = self.plan.resources[ref.resource].format
+        raw = self.ctx.read(self.texture(ref))
+        dtype = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}[fmt]
+        texels = np.frombuffer(raw, dtype).reshape(-1, 4)[:stage.count]
+        if fmt == "rgba16f":
+            texels = texels.astype(np.float32)
+        self.ctx.write(self.buffers[(stage.name, attribute)], np.ascontiguousarray(texels)
+                       .tobytes())
 
     def _next_draws(self, stage):
         """Indices into ``stage.repeat`` of this frame's draws: all, or the next ``per_frame``

@@ -69,7 +69,7 @@ class Pipeline:
     ctx : Context
     scene : Scene
     particles, size, fmt, point_size, intensity, exposure, gradient, bloom, seed, rounding,
-    steps, accumulate, share
+    steps, accumulate, vertex_fetch, share
         The :class:`~es2particles.frame.settings.FrameSettings` (``fmt`` is its ``format``), as
         keywords; or ``settings``, a FrameSettings. ``gradient`` None is grey and ``bloom``
         None is off; any other None is the default. ``accumulate``: samples summed into each
@@ -83,12 +83,13 @@ class Pipeline:
     def __init__(self, ctx, scene, particles=DEFAULT, size=DEFAULT, fmt=DEFAULT,
                  point_size=DEFAULT, intensity=DEFAULT, exposure=DEFAULT, gradient=DEFAULT,
                  bloom=DEFAULT, seed=DEFAULT, rounding=DEFAULT, steps=DEFAULT,
-                 accumulate=DEFAULT, share=None, settings=None):
+                 accumulate=DEFAULT, vertex_fetch=DEFAULT, share=None, settings=None):
         self.executor = self.sim = None
         given = {name: value for name, value in dict(
             particles=particles, size=size, format=fmt, point_size=point_size,
             intensity=intensity, exposure=exposure, gradient=gradient, bloom=bloom, seed=seed,
-            rounding=rounding, steps=steps, accumulate=accumulate).items()
+            rounding=rounding, steps=steps, accumulate=accumulate,
+            vertex_fetch=vertex_fetch).items()
             if value is not DEFAULT}
         if share is not None:
             given["share"] = share
@@ -110,7 +111,9 @@ class Pipeline:
             self.release()
             raise
         self.final = self._read = None
-        self._ordered = not scene.positions_repeat
+        # Points drawn from texels read back each frame keep texel order (the read is in it).
+        points = [s for s in self.plan.frame_stages if s.kind == "points"]
+        self._ordered = not scene.positions_repeat or any(s.attributes for s in points)
         self._drawn = False  # a first frame was drawn: ordering pays from the second one on
         # Sprites drawn straight to the picture: the first frame checks that one lit a pixel
         # (where the device draws: a recording device's pictures are empty).

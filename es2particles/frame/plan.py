@@ -122,7 +122,9 @@ class Stage:
     """One draw of the frame, complete.
 
     ``kind`` groups stages for a reader (pass, sort key, sort merge, shadow map, mesh, points,
-    sprites, post); executors treat every kind alike. ``inputs``: sampler -> :class:`Ref`.
+    sprites, post); executors treat every kind alike. ``inputs``: sampler -> :class:`Ref`;
+    ``attributes``: vertex attribute -> the :class:`Ref` of a state texture read back into it
+    before each draw (where the vertex shader cannot fetch textures).
     ``target``: the :class:`Ref` it draws into (the back of a pair). ``vertices``: the name of its
     :class:`Vertices`, or None for the full-screen triangle; ``count``: vertices drawn (None:
     all). ``uniforms``: its own values, set strictly (a name the shader does not declare and use
@@ -142,6 +144,7 @@ class Stage:
     interface: object = field(default=None, repr=False, compare=False)
     vertex_interface: object = field(default=None, repr=False, compare=False)
     inputs: dict = field(default_factory=dict)
+    attributes: dict = field(default_factory=dict)
     target: Ref = None
     vertices: str = None
     primitive: str = "triangles"
@@ -164,7 +167,8 @@ class Stage:
 
     @property
     def reads(self):
-        return tuple(dict.fromkeys(ref.resource for ref in self.inputs.values()))
+        refs = list(self.inputs.values()) + list(self.attributes.values())
+        return tuple(dict.fromkeys(ref.resource for ref in refs))
 
 
 # --- frame values -------------------------------------------------------------------------------
@@ -403,6 +407,11 @@ class PlanBuilder:
             self.vertex_data(Vertices("particles", "texels", self.layout.count, self.layout.width,
                                       self.layout.height))
         return "particles"
+
+    def state_attributes(self, interface):
+        """The :class:`Ref` of each attribute of a generated interface that reads quantities
+        back (``bindings.stage_interface(..., attributes=True)``)."""
+        return {name: Ref(q, part) for name, (q, part) in interface.attributes.items()}
 
     def state_inputs(self, interface):
         """The :class:`Ref` of each sampler of a generated interface (quantities and scene

@@ -42,7 +42,8 @@ DEFAULT = _Default()
 OPTIONS = {"particles": "--particles", "size": "--size", "format": "--format",
            "rounding": "--rounding", "steps": "--steps", "point_size": "--point-size",
            "intensity": "--intensity", "exposure": "--exposure", "gradient": "--gradient",
-           "bloom": "--no-bloom/--bloom-*", "accumulate": "--accumulate", "seed": "--seed"}
+           "bloom": "--no-bloom/--bloom-*", "accumulate": "--accumulate", "seed": "--seed",
+           "vertex_fetch": "--vertex-fetch"}
 
 
 @dataclass(frozen=True)
@@ -68,6 +69,7 @@ class FrameSettings:
     bloom: object = DEFAULT
     accumulate: object = DEFAULT
     seed: object = DEFAULT
+    vertex_fetch: object = DEFAULT
     share: int = 0
 
     def given(self):
@@ -155,6 +157,10 @@ SETTINGS = {d.name: d for d in (
     _setting("accumulate", 1, 1, MAX_ACCUMULATE, integer=True,
              help="samples summed into each image: this step's density and the next K-1 "
                   "steps' (reseeded attractors shift their grid for each); 1/sqrt(K) the noise"),
+    _setting("vertex_fetch", "auto", choices=("auto", "on", "off"),
+             help="how the points read the state: on, vertex texture fetch (the article's "
+                  "way); off, the state read back into a vertex buffer each frame (for devices "
+                  "without it); auto, on where the context has vertex texture units"),
     _setting("bloom_threshold", 0.2, 0.0, 1.0, help="bloom luminance threshold"),
     _setting("bloom_radius", 3.0, 0.5, 4.0, help="bloom blur sigma, texels of the half level"),
     _setting("bloom_intensity", 0.8, 0.0, 10.0, help="bloom strength"),

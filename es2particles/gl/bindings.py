@@ -8,7 +8,9 @@ two can never disagree:
 - for each quantity ``q`` read or written: ``uniform vec4 u_q_lo, u_q_span`` (its range, one
   number per component);
 - for each quantity read: its samplers ``u_q`` (and ``u_q_1``, the second RGBA8 part of a quantity
-  of 3 or 4 components) and ``read_q(uv)``, returning float, vec2, vec3 or vec4;
+  of 3 or 4 components) and ``read_q(uv)``, returning float, vec2, vec3 or vec4; a vertex stage
+  without vertex texture fetch reads attributes ``a_q`` (and ``a_q_1``) instead, the texels read
+  back into a vertex buffer each frame, through the same ``read_q(uv)``;
 - for the written quantity: ``write_q(value)`` (and ``write(value)``, the same, for a shader that
   several passes share), which sets the part this draw writes (ES 2.0 has one render target: a
   two-part quantity is written by two draws); the shader's ``main`` is renamed, and a generated
@@ -68,6 +70,7 @@ class Interface:
     """What the generated lines declare, so the executor can feed and check them.
 
     ``samplers``: sampler name -> ('quantity', name, part, this_step) or ('texture', name).
+    ``attributes``: attribute name -> (quantity, part), a quantity's texels read back.
     ``uniforms``: the stage's own uniform name -> (type, array suffix).
     ``fixed``: uniforms set once from the declaration (ranges), name -> value.
     ``writes``: (quantity, part) of a pass's draw, or None.
@@ -76,6 +79,7 @@ class Interface:
 
     lines: list = field(default_factory=list)
     samplers: dict = field(default_factory=dict)
+    attributes: dict = field(default_factory=dict)
     uniforms: dict = field(default_factory=dict)
     fixed: dict = field(default_factory=dict)
     writes: tuple = None
@@ -130,6 +134,29 @@ def _reader(out, quantity, fmt, this_step):
     else:
         body = f"texture2D({samplers[0]}, uv)" + ("" if c == 4 else "." + "xyzw"[:c])
     out.lines += [f"{ret} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
+
+
+def _attribute_reader(out, quantity, fmt):
+    """``read_q(uv)`` from attributes: the quantity's texels, read back into a vertex buffer in
+    the draw's order (the texel ``uv`` is not needed), decoded as a texture fetch decodes them:
+    RGBA8 bytes normalised to c / 255 as a sampler gives them, floats as they are."""
+    q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
+    _ranges(out, quantity)
+    names = [f"a_{q}" if part == 0 else f"a_{q}_{part}" for part in range(quantity.parts(fmt))]
+    for part, name in enumerate(names):
+        out.declare(f"attribute vec4 {name};", name,
+                    f"part {part + 1} of quantity {q!r}, read back")
+        out.attributes[name] = (q, part)
+    if fmt == "rgba8":
+        decoded = [f"state_decode({a}, u_{q}_lo.{axes}, u_{q}_span.{axes})"
+                   for a, axes in zip(names, ("xy", "zw"))]
+        if c <= 2:
+            body = decoded[0] + (".x" if c == 1 else "")
+        else:
+            body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
+    else:
+        body = names[0] + ("" if c == 4 else "." + "xyzw"[:c])
+    out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
 
 
 def _writer(out, quantity, fmt, part):
@@ -196,11 +223,15 @@ def pass_interface(spec, quantities, fmt, part=0):
     return out
 
 
-def stage_interface(reads, quantities, fmt, uniforms=None):
-    """The interface of a vertex stage that reads quantities at a texel (a renderer)."""
+def stage_interface(reads, quantities, fmt, uniforms=None, attributes=False):
+    """The interface of a vertex stage that reads quantities at a texel (a renderer): by vertex
+    texture fetch, or with ``attributes`` from the texels read back into vertex buffers."""
     out = Interface(lines=list(PRELUDE), owners=dict(BUILT_IN))
     for name in reads:
-        _reader(out, quantities[name], fmt, this_step=False)
+        if attributes:
+            _attribute_reader(out, quantities[name], fmt)
+        else:
+            _reader(out, quantities[name], fmt, this_step=False)
     _own_uniforms(out, uniforms or {})
     return out
 

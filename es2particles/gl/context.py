@@ -92,6 +92,8 @@ class Capabilities:
                 ("max texture size", self.max_texture_size),
                 ("max particles (max texture size squared)", self.max_texture_size ** 2),
                 ("vertex texture image units", self.max_vertex_texture_units),
+                ("particles drawn by", "vertex texture fetch" if self.max_vertex_texture_units
+                 else "reading the state back each frame (no vertex texture units)"),
                 ("point size range", "%g..%g" % tuple(self.point_size_range))]
         for name in TEXTURE_FORMATS:
             rows.append((f"{name} render target / additive blend",

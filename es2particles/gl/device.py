@@ -429,8 +429,9 @@ class RecordingDevice:
     def draw(self, vertex_array, framebuffer, textures, state, primitive, first=0, count=None,
              label=None):
         program = vertex_array.details["program"]
-        self._record("draw", stage=label, program=program, framebuffer=framebuffer,
-                     textures=dict(textures), uniforms=dict(program.details["values"]),
+        self._record("draw", stage=label, program=program, vertex_array=vertex_array,
+                     framebuffer=framebuffer, textures=dict(textures),
+                     uniforms=dict(program.details["values"]),
                      state=state, primitive=primitive, first=first, count=count)
 
 

@@ -10,6 +10,7 @@ constant into the density target with additive blending, so the target holds den
 from dataclasses import dataclass
 
 from ..errors import CapabilityError, ParameterError, check_range
+from ..frame.graph import format_bytes
 from ..frame.plan import Ref, Rendering, Resource, Stage
 from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
@@ -68,7 +69,8 @@ class Density(Rendering):
     background: object = None
     draw_slice: int = None
 
-    settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate")
+    settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate",
+                "vertex_fetch")
     has_camera = False
     kind = "it draws 2D density points"
 
@@ -103,9 +105,12 @@ class Density(Rendering):
         from .post import Bloom, plan_post
 
         caps, layout, size = b.caps, b.layout, b.size
-        if caps.max_vertex_texture_units < 1:
-            raise CapabilityError("no support for vertex shader textures "
-                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0): cannot draw particles")
+        fetch = setting("vertex_fetch", b.setting("vertex_fetch", "auto"))
+        units = caps.max_vertex_texture_units
+        if fetch == "on" and units < 1:
+            raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
+                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
+        fetch = fetch == "on" or (fetch == "auto" and units >= 1)
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
                                  lo, hi)
@@ -116,25 +121,34 @@ class Density(Rendering):
         scale = 1.0 if fmt != "rgba8" else 1.0 / 255.0
         quantities = {q: b.graph_plan.quantities[q] for q in self.reads}
         own = point_uniforms(self.view, point_size, size)
-        interface = stage_interface(tuple(quantities), quantities, b.format, own)
+        interface = stage_interface(tuple(quantities), quantities, b.format, own,
+                                    attributes=not fetch)
         draw_slice = self.draw_slice
         if draw_slice is None:
             draw_slice = SOFTWARE_DRAW_SLICE if caps.software_rasteriser else None
         w, h = size
         b.resource(Resource("density", "target", size, fmt, linear=True,
                             what=f"additive points, {note}"))
+        if fetch:
+            how = f"vertex texture fetch of {' and '.join(quantities)}"
+        else:
+            texels = sum(q.parts(b.format) for q in quantities.values())
+            per = 4 if b.format == "rgba8" else 16
+            how = (f"no vertex texture fetch: {' and '.join(quantities)} read back each frame "
+                   f"and uploaded as vertex attributes ({texels} texture read"
+                   f"{'s' * (texels > 1)}, {format_bytes(texels * per * layout.count)} a frame)")
         b.stage(Stage(
             "points", "points", "points.frag", "points.vert",
             {"AGE_FADE": None} if "life" in quantities else {}, vertex_interface=interface,
-            inputs=b.state_inputs(interface), target=Ref("density"),
-            vertices=b.particle_texels(), primitive="points", count=layout.count,
+            inputs=b.state_inputs(interface), attributes=b.state_attributes(interface),
+            target=Ref("density"), vertices=b.particle_texels() if fetch else None,
+            primitive="points", count=layout.count,
             state=DrawState(blend="add", point_size=True),
             uniforms={**own, "u_colour": (intensity * scale,) * 4},
             generated=generated_values(interface, layout), clear=(0.0, 0.0, 0.0, 0.0),
             slice=draw_slice,
             what=f"{layout.count} points of {point_size:g} pixel{'s' * (point_size != 1)}, "
-                 f"vertex texture fetch of "
-                 f"{' and '.join(quantities)}"))
+                 f"{how}"))
         mean = layout.count * intensity * scale / (w * h) * b.accumulate
         return plan_post(b, "density", mean, b.setting("exposure", 4.0),
                          b.setting("gradient", "inferno"), b.setting("bloom", Bloom()),

@@ -56,10 +56,13 @@
   show("vertex texture units", vertexUnits);
   show("fragment highp", highp > 0 ? `yes (${highp}-bit significand)` : "no");
   show("point size range", `${pointRange[0]}..${pointRange[1]}`);
+  show("vertex texture fetch", plan.vertex_fetch ? "used"
+    : "not used: the state is read back into vertex buffers each frame");
   const missing = [];
-  if (vertexUnits < 1) {
+  if (vertexUnits < 1 && plan.vertex_fetch) {
     missing.push("vertex texture fetch: MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0, so the vertex " +
-                 "shader cannot read the particles' positions");
+                 "shader cannot read the particles' positions (export the scene with " +
+                 "--vertex-fetch off to read them back each frame instead)");
   }
   if (highp < 1) {
     missing.push("highp float in fragment shaders: the 16-bit packed state and the passes' " +
@@ -262,10 +265,38 @@
     vertexData[name] = { buffer, attributes: v.attributes, count: v.count };
   }
 
+  // A stage whose vertex shader reads the state from attributes (no vertex texture fetch): each
+  // part's texels read back and uploaded before the draw, bytes normalised as a sampler gives them.
+  const readBackBuffers = {};
+  function readBack(stage) {
+    const list = [];
+    for (const [attribute, [name, part]] of Object.entries(stage.attributes)) {
+      const t = front(name, part);
+      const texels = read(t, gl.UNSIGNED_BYTE, Uint8Array).subarray(0, 4 * stage.count);
+      const key = `${stage.name} ${attribute}`;
+      readBackBuffers[key] = readBackBuffers[key] || gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, readBackBuffers[key]);
+      gl.bufferData(gl.ARRAY_BUFFER, texels, gl.STREAM_DRAW);
+      list.push({ buffer: readBackBuffers[key], name: attribute });
+    }
+    return { readBack: list, count: stage.count };
+  }
+
   let enabled = [];
   function attributes(p, vertices) {
     for (const location of enabled) gl.disableVertexAttribArray(location);
     enabled = [];
+    if (vertices.readBack) {
+      for (const { buffer, name } of vertices.readBack) {
+        const location = gl.getAttribLocation(p.program, name);
+        if (location < 0) continue;
+        gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+        gl.enableVertexAttribArray(location);
+        gl.vertexAttribPointer(location, 4, gl.UNSIGNED_BYTE, true, 0, 0);
+        enabled.push(location);
+      }
+      return;
+    }
     gl.bindBuffer(gl.ARRAY_BUFFER, vertices.buffer);
     const stride = 4 * vertices.attributes.reduce((sum, [, n]) => sum + n, 0);
     let offset = 0;
@@ -534,9 +565,11 @@
     const [name, part] = stage.target;
     const r = plan.resources[name];
     const p = programs[stage.program];
-    const vertices = stage.vertices === null ? triangle : vertexData[stage.vertices];
-    const count = stage.vertices === null ? 3 : (stage.count === null ? vertices.count
-                                                                       : stage.count);
+    const fetched = Object.keys(stage.attributes).length > 0;
+    const vertices = fetched ? readBack(stage)
+      : (stage.vertices === null ? triangle : vertexData[stage.vertices]);
+    const count = fetched ? stage.count : (stage.vertices === null ? 3
+      : (stage.count === null ? vertices.count : stage.count));
     const base = values(stage, r.width / r.height);
     const swaps = r.swap === "draw";
     if (stage.clear) bindTarget(back(name, part), stage.clear, r.depth);
@@ -588,7 +621,8 @@
 
   function drawDensity(stage) {
     const p = programs[stage.program];
-    const vertices = vertexData[stage.vertices];
+    const vertices = Object.keys(stage.attributes).length ? readBack(stage)
+      : vertexData[stage.vertices];
     const count = stage.count;
     const intensity = plan.density.intensity;
     const base = values(stage, width / height);

@@ -1,0 +1,45 @@
+"""Points without vertex texture fetch (the article's Tegra row): the state read back into vertex
+buffers each frame and decoded by the same read_q() from attributes. The density is the fetch
+path's, count for count; a context with no vertex texture units takes this path by itself."""
+
+import numpy as np
+import pytest
+
+from es2particles.errors import CapabilityError
+from es2particles.frame.pipeline import Pipeline
+from es2particles.frame.plan import plan_frame
+from es2particles.frame.settings import FrameSettings
+from es2particles.gl.context import Capabilities
+from es2particles.scenes import Clifford, Collision, DeJong
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("scene, settings", [
+    (DeJong(), {}), (DeJong(reseed=True), {"accumulate": 3}), (Clifford(), {"fmt": "rgba32f"}),
+    (DeJong(), {"fmt": "rgba16f"}), (Collision(), {"steps": 60})], ids=lambda v: str(v)[:30])
+def test_the_density_read_back_is_the_fetched_one(gl, scene, settings):
+    densities, images = [], []
+    for fetch in ("on", "off"):
+        with Pipeline(gl, scene, particles=2 ** 15, size=(128, 128), vertex_fetch=fetch,
+                      **settings) as pipeline:
+            points = pipeline.plan.stage("points")
+            assert bool(points.attributes) == (fetch == "off") and \
+                bool(points.inputs) == (fetch == "on")
+            frames = list(pipeline.frames(2, steps_per_frame=3))
+            densities.append(np.frombuffer(pipeline.executor.read("density"), np.float32))
+            images.append(pipeline.image())
+    assert len(frames) == 2 and densities[0].sum() > 0
+    assert np.array_equal(densities[0], densities[1]) and np.array_equal(*images)
+
+
+def test_a_context_without_vertex_texture_units_reads_the_state_back():
+    caps = Capabilities.assumed(max_vertex_texture_units=0)
+    plan = plan_frame(Collision(), FrameSettings(particles=4096), caps)
+    points = plan.stage("points")
+    assert set(points.attributes) == {"a_position", "a_life"} and not points.inputs
+    line = next(line for line in plan.describe() if "points:" in line)
+    assert "no vertex texture fetch: position and life read back each frame" in line
+    assert "2 texture reads, 32 KiB a frame" in line
+    with pytest.raises(CapabilityError, match="--vertex-fetch on: this context has no vertex "
+                                              "texture units"):
+        plan_frame(DeJong(), FrameSettings(particles=4096, vertex_fetch="on"), caps)

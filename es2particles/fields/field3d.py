@@ -39,7 +39,7 @@ from . import field2d
 from .field2d import union  # the smallest distance, with its shape's normal: any dimension
 from ..twins import pack as packing
 
-ENCODINGS = ("packed", "float", "smooth")
+ENCODINGS = ("packed", "float", "half", "smooth")
 FAR_VOXELS = 3  # outside, distances are held up to this many voxels; beyond, "far"
 
 
@@ -360,14 +360,16 @@ class VoxelField:
         return atlas_layout(self.cells, max_size, block)
 
     def texels(self, encoding="packed", max_size=4096, block=(1, 1)):
-        """The atlas (h, w, 4): uint8 for ``packed`` and ``smooth``, float32 for ``float``.
+        """The atlas (h, w, 4): uint8 for ``packed`` and ``smooth``, float32 for ``float``,
+        float16 for ``half`` (the chapter's half floats: distance and normal as they are).
         Padding texels repeat their tile's edge voxels (a smooth image for compression)."""
         if encoding not in ENCODINGS:
             raise ParameterError(f"field encoding must be one of {ENCODINGS}, got {encoding!r}")
         lo, hi = self.range
         unit = (self.distance - lo) / (hi - lo)
-        if encoding == "float":
-            voxels = np.concatenate([self.distance[..., None], self.normal], -1).astype(np.float32)
+        if encoding in ("float", "half"):
+            voxels = np.concatenate([self.distance[..., None], self.normal], -1).astype(
+                np.float32 if encoding == "float" else np.float16)
         elif encoding == "packed":
             voxels = np.concatenate([packing.pack16(unit.astype(np.float32)),
                                      normal_bytes(self.normal)], -1)
@@ -405,8 +407,8 @@ class VoxelField:
         voxels = np.stack([atlas[(z // columns) * th:(z // columns) * th + ny,
                                  (z % columns) * tw:(z % columns) * tw + nx] for z in range(nz)])
         lo, span = np.float32(self.range[0]), np.float32(self.range[1] - self.range[0])
-        if encoding == "float":
-            d, n = voxels[..., 0], voxels[..., 1:]
+        if encoding in ("float", "half"):
+            d, n = voxels[..., 0].astype(np.float32), voxels[..., 1:].astype(np.float32)
             n = n / np.linalg.norm(n, axis=-1, keepdims=True)
         else:
             t = voxels.astype(np.float32) / np.float32(255)

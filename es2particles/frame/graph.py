@@ -180,8 +180,8 @@ class PassGraph:
         return self.quantities[name]
 
     def texture(self, name, data):
-        """Declare a scene texture: ``data`` is an (h, w, 4) uint8 or float32 array (a collision
-        field, a ramp), or :class:`~es2particles.gl.astc.Compressed` blocks. The simulation uploads
+        """Declare a scene texture: ``data`` is an (h, w, 4) uint8, float16 or float32 array (a
+        collision field, a ramp; stored RGBA8, RGBA16F or RGBA32F), or :class:`~es2particles.gl.astc.Compressed` blocks. The simulation uploads
         it, samples it NEAREST and owns it; a pass that lists ``name`` in ``textures=`` samples it
         as ``u_<name>``."""
         from ..gl.astc import Compressed
@@ -194,9 +194,10 @@ class PassGraph:
             self.textures[name] = data
             return data
         data = np.asarray(data)
-        if data.ndim != 3 or data.shape[2] != 4 or data.dtype not in (np.uint8, np.float32):
-            raise ParameterError(f"texture {name!r}: data must be an (h, w, 4) uint8 or float32 "
-                                 f"array, got shape {data.shape} {data.dtype}")
+        if data.ndim != 3 or data.shape[2] != 4 or \
+                data.dtype not in (np.uint8, np.float16, np.float32):
+            raise ParameterError(f"texture {name!r}: data must be an (h, w, 4) uint8, float16 or "
+                                 f"float32 array, got shape {data.shape} {data.dtype}")
         self.textures[name] = data
         return data
 

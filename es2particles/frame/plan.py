@@ -453,7 +453,9 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
                                   what=f"quantity, {q.components} components"))
     for name, data in plan.textures.items():
         compressed = not isinstance(data, np.ndarray)
-        fmt_of = "rgba8" if compressed or data.dtype == np.uint8 else "rgba32f"
+        fmt_of = "rgba8" if compressed else {np.dtype(np.uint8): "rgba8",
+                                             np.dtype(np.float16): "rgba16f"}.get(data.dtype,
+                                                                                  "rgba32f")
         size = (data.width, data.height) if compressed else (data.shape[1], data.shape[0])
         builder.resource(Resource(name, "image", size, fmt_of, data=data,
                                   what="scene texture"))

@@ -29,7 +29,8 @@ DEFAULT_SHAPE = "sphere:0,1,0,1"
 # Uncompressed field formats and their encodings (field3d.py); and astcWxH (see astc.BLOCKS).
 # rgba8-smooth, the 8-bit distance of the compressed fields left uncompressed, tells the two
 # errors of a compressed field apart.
-FIELD_ENCODINGS = {"rgba8": "packed", "rgba32f": "float", "rgba8-smooth": "smooth"}
+FIELD_ENCODINGS = {"rgba8": "packed", "rgba16f": "half", "rgba32f": "float",
+                   "rgba8-smooth": "smooth"}
 FIELD_FORMATS = tuple(FIELD_ENCODINGS)
 
 
@@ -52,9 +53,9 @@ class Collision3DParams(EmitterParams):
                                   help="voxels along the object's longest side")
     field_format: str = param("rgba8", text=True,
                               help="the field's texture: rgba8 (16-bit distance, octahedral "
-                                   "normal), rgba32f, rgba8-smooth (8-bit distance, as the "
-                                   "compressed ones) or astcWxH (compressed, e.g. astc6x6, "
-                                   "where the context has ASTC)")
+                                   "normal), rgba16f (the chapter's half floats), rgba32f, "
+                                   "rgba8-smooth (8-bit distance, as the compressed ones) or "
+                                   "astcWxH (compressed, e.g. astc6x6, where the context has ASTC)")
     gravity: tuple = param((0.0, -9.81, 0.0), -100.0, 100.0, count=3, unit="m/s^2",
                            help="the acceleration of gravity (a vector, as in every scene)")
     force: tuple = param((0.0, 0.0, 0.0), -1e3, 1e3, count=3, unit="N",
@@ -228,6 +229,7 @@ class Collision3D(Emitter):
     def defines(self, caps):
         encoding, _, _ = self.field_choice(caps)
         return {"MAX_SUBSTEPS": self.max_substeps, **{"float": {"FIELD_FLOAT": None},
+                                                      "half": {"FIELD_FLOAT": None},
                                                       "smooth": {"FIELD_SMOOTH": None},
                                                       "packed": {}}[encoding]}
 
@@ -319,4 +321,7 @@ class Collision3D(Emitter):
                                                                   errors)]
         if missing:
             lines.append(f"  ASTC: {missing}; compressed rows not measured")
+        if "GL_KHR_texture_compression_astc_hdr" not in ctx.caps.extensions:
+            lines.append("  ASTC HDR (the chapter's half floats, compressed): this context lacks "
+                         "GL_KHR_texture_compression_astc_hdr; no row")
         return lines

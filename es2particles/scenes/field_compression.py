@@ -8,7 +8,8 @@ textures to hold them.
 
 Error: the same start (the scene's own emission, no randomness in flight) run for a fixed number
 of steps against the float field (``rgba32f``), the state kept in float32 so that only the field
-differs. rgba8-smooth is the compressed fields' encoding (an 8-bit distance) left uncompressed:
+differs. rgba16f is the chapter's half floats (distance and normal as they are);
+rgba8-smooth is the compressed fields' encoding (an 8-bit distance) left uncompressed:
 the difference between its row and an ASTC row is what the blocks cost, the rest is the 8 bits.
 Penetration: the deepest any living particle is inside the exact shapes after any step,
 in voxels. Trajectory: how far each particle alive in both runs ends from its reference place
@@ -38,6 +39,7 @@ def atlas_bytes(n, bytes_per_block, block=(1, 1), max_size=16384):
 def memory_rows(resolutions=(64, 128, 256)):
     """Rows (format, nominal bits per voxel, {n: bytes of an n^3 field}), padding counted."""
     rows = [("rgba32f", 128.0, {n: atlas_bytes(n, 16) for n in resolutions}),
+            ("rgba16f", 64.0, {n: atlas_bytes(n, 8) for n in resolutions}),
             ("rgba8", 32.0, {n: atlas_bytes(n, 4) for n in resolutions}),
             ("rgba8-smooth", 32.0, {n: atlas_bytes(n, 4) for n in resolutions})]
     for bw, bh in BLOCKS:
@@ -72,7 +74,8 @@ def collision_errors(ctx, scene_of, field, count=4096, steps=90, blocks=MEASURED
     the same field (its physics without randomness in flight). Penetration needs the exact
     distance: NaN for a mesh's field."""
     ref_x, ref_alive = _run(ctx, scene_of("rgba32f"), count, steps)
-    formats = ["rgba32f", "rgba8", "rgba8-smooth"] + [f"astc{w}x{h}" for w, h in blocks]
+    formats = ["rgba32f", "rgba16f", "rgba8", "rgba8-smooth"] + [f"astc{w}x{h}"
+                                                                  for w, h in blocks]
     analytic = not any(isinstance(s, TriangleMesh) for s in field.shapes)
     rows = []
     for fmt in formats:

@@ -24,6 +24,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -325,6 +326,42 @@ def fountain_section(ctx, sizes, repeats, emit):
                          f"({t[1] * 1e3:.1f}-{t[2] * 1e3:.1f}) | - | - |")
 
 
+def confetti_section(ctx, sizes, repeats, emit):
+    """The confetti's quads against point sprites of the same state: the confetti scene after
+    its warm-up, drawn as its quads (four vertices a particle through one index buffer, three
+    textures fetched by each vertex) and as disc sprites of the size a quad covers on screen
+    (one vertex a particle), meshes off, at the scene's camera: the cost per particle of each."""
+    from es2particles.frame.pipeline import Renderer
+    from es2particles.render.sprites import Sprites
+    from es2particles.scenes import Confetti
+
+    scene = Confetti()
+    camera = scene.camera_at(0, 1)
+    quads = replace(scene.rendering(), meshes=())
+    d = np.linalg.norm(np.subtract(camera.eye, camera.target))
+    pixels = scene.params.paper_size * camera.focal_pixels(SIZE[1]) / d  # a quad's side on screen
+    sprites = Sprites(sprite="disc", size_spread=0.0, attenuation=(0.0, 0.0, 1 / d ** 2),
+                      roles={"position": "position", "fade": "life"})
+    emit(f"| N | quads ms (min-max) | ns a quad | sprites ms ({pixels:.1f} px) | ns a sprite | "
+         "quads/sprites |")
+    emit("|---|---|---|---|---|---|")
+    for log2n in sizes:
+        count = 2 ** log2n
+        with Pipeline(ctx, scene, count, SIZE) as p:
+            p.warm_up()
+            finish = ctx.finish
+            times = []
+            for rendering, extra in ((quads, {}),
+                                     (sprites, {"point_size": pixels * 1024 / SIZE[1]})):
+                with Renderer(ctx, rendering, p.sim, size=SIZE, **extra) as r:
+                    r.draw(camera)
+                    times.append(timed(lambda: r.draw(camera), repeats, finish))
+        q, s = times
+        emit(f"| 2^{log2n} | {fmt_ms(q)} ({q[1] * 1e3:.1f}-{q[2] * 1e3:.1f}) | "
+             f"{q[0] / count * 1e9:.0f} | {fmt_ms(s)} | {s[0] / count * 1e9:.0f} | "
+             f"{q[0] / s[0]:.2f} |")
+
+
 def smoke_section(ctx, sizes, repeats, emit):
     """The smoke: its step (acceleration, velocity, position, life), the back-to-front sort (key
     pass + the whole odd-even merge network, or 8 passes of it spread over frames) against the
@@ -586,6 +623,10 @@ def main(argv=None):
                 continue
             if scene == "dask":
                 dask_section(emit, args.quick)
+                continue
+            if scene == "confetti":
+                confetti_section(ctx, [12, 14] if args.quick else [12, 14, 16, 18],
+                                 args.repeats, emit)
                 continue
             if scene == "smoke":
                 smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],

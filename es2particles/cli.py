@@ -240,6 +240,7 @@ def _add_scene_commands(commands, argv):
             summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")
             sub = scenes.add_parser(name, help=summary, description=summary)
             own = sub.add_argument_group(f"{name}'s parameters")
+            _check_names(scene)
             scene.add_arguments(own)
             scene_options = [a.dest for a in own._group_actions]
             _add_settings(sub.add_argument_group("frame settings (defaults: this scene's)"),
@@ -247,6 +248,21 @@ def _add_scene_commands(commands, argv):
             _add_run_options(sub, command)
             sub.set_defaults(handler=handlers[command], scene_class=scene,
                              scene_options=scene_options)
+
+
+def _check_names(scene):
+    """A scene's parameter named like a frame setting or a run option would take its option:
+    say so, naming both, for the scene's author."""
+    from .errors import GraphError
+    from .frame.settings import SETTINGS
+    from .run import RUN_OPTIONS
+
+    taken = set(SETTINGS) | {"bloom", "no_bloom"} | set(RUN_OPTIONS)
+    clash = [n for n in scene.Params.options() if n in taken]
+    if clash:
+        raise GraphError(f"scene {scene.name!r}: its parameter {clash[0]!r} has the name of a "
+                         f"frame setting or run option (--{clash[0].replace('_', '-')}); rename "
+                         "the parameter")
 
 
 def _add_settings(parser, scene):

@@ -16,7 +16,7 @@ from conftest import glslang
 from es2particles.export.page import page_plan, write_page
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.camera import Camera
-from es2particles.scenes import Collision3D, Fountain, Smoke
+from es2particles.scenes import Collision3D, Confetti, Fountain, Smoke
 from es2particles.scenes.clifford import Clifford
 from es2particles.scenes.collision import Collision
 from es2particles.scenes.dejong import DeJong
@@ -279,7 +279,7 @@ def test_export_writes_one_self_contained_page(tmp_path):
 
 # --- the 3D scenes: sprites, meshes, sort, shadow map, a moving object ---------------------------
 
-SCENES_3D = [Fountain(), Collision3D(), Smoke()]
+SCENES_3D = [Fountain(), Collision3D(), Confetti(), Smoke()]
 SIZE_3D = (256, 256)
 N_3D = 4096
 # Measured on Chromium's SwiftShader against llvmpipe (README): drawing the same state differs

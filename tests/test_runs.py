@@ -18,7 +18,7 @@ RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-fr
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
 COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size"}
 DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",
-                "--bloom-threshold", "--bloom-radius", "--bloom-intensity"}
+                "--bloom-threshold", "--bloom-radius", "--bloom-intensity", "--vertex-fetch"}
 
 
 def help_of(capsys, *argv):
@@ -36,16 +36,18 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
     text = help_of(capsys, "run", name)
     listed = listed_options(text)
     params = {"--" + n.replace("_", "-") for n in scene_class(name).Params.options()}
-    sprites = name in ("fountain", "collision3d", "smoke")
-    expected = RUN_OPTIONS | COMMON | params | (set() if sprites else DENSITY_ONLY)
+    three_d = name in ("fountain", "collision3d", "confetti", "smoke")
+    common = COMMON - {"--point-size"} if name == "confetti" else COMMON  # quads: a world size
+    expected = RUN_OPTIONS | common | params | (set() if three_d else DENSITY_ONLY)
     assert listed == expected, (listed ^ expected)
-    if sprites:
+    if three_d:
         assert not listed & DENSITY_ONLY
 
 
 # Each scene's defaults as the README and docs state them, typed here, not read from the code.
 STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^17", "2"),
-          "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "smoke": ("2^15", "16")}
+          "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "confetti": ("2^13", None),
+          "smoke": ("2^15", "16")}
 
 
 @pytest.mark.parametrize("name", BUILT_IN)
@@ -53,7 +55,9 @@ def test_help_states_the_scene_s_own_defaults(capsys, name):
     text = " ".join(help_of(capsys, "run", name).split())
     particles, point_size = STATED[name]
     assert f"particle count; in [1, inf]; default {particles}" in text
-    assert re.search(rf"--point-size X point or sprite diameter .*?default {point_size}\b", text)
+    if point_size is not None:
+        assert re.search(rf"--point-size X point or sprite diameter .*?default {point_size}\b",
+                         text)
 
 
 def test_the_fountain_s_help_is_its_own(capsys):

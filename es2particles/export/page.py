@@ -202,6 +202,8 @@ def page_plan(scene, settings=None, **given):
                  "attributes": [list(a) for a in v.attributes]}
         if v.source == "data":
             entry["data"] = _bytes(np.asarray(v.data, np.float32))
+        if v.indices is not None:
+            entry["indices"] = _bytes(np.asarray(v.indices, np.uint32))
         vertices[name] = entry
     return {"scene": scene.name, "title": (scene.__doc__ or scene.name).strip().splitlines()[0],
             "layout": {"count": layout.count, "width": layout.width, "height": layout.height},

@@ -228,7 +228,7 @@ def octahedral_encode(n):
 
 
 def octahedral_decode(e):
-    """Twin of ``octahedral_decode`` in lib/field3d.glsl, float32."""
+    """Twin of ``octahedral_decode`` in lib/octahedral.glsl, float32."""
     e = np.asarray(e, np.float32)
     z = np.float32(1) - np.abs(e[..., 0]) - np.abs(e[..., 1])
     sign = np.where(e >= 0, np.float32(1), np.float32(-1))

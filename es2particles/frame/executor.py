@@ -53,6 +53,9 @@ class Executor:
                     self.resources[resource.name] = self._make(resource)
             for vertices in plan.vertices.values():
                 self.buffers[vertices.name] = self.group.buffer(vertices.array().tobytes())
+                if vertices.indices is not None:
+                    self.buffers[(vertices.name, "indices")] = self.group.buffer(
+                        np.ascontiguousarray(vertices.indices, np.uint32).tobytes())
             for stage in plan.stages:
                 self.commands[stage.name] = self._command(stage)
         except Exception:
@@ -80,11 +83,12 @@ class Executor:
         return target
 
     def _command(self, stage):
-        vertices = None
+        vertices = indices = None
         if stage.vertices is not None:
             v = self.plan.vertices[stage.vertices]
             layout = " ".join(f"{n}f" for _, n in v.attributes)
             vertices = [(self.buffers[v.name], layout, *(a for a, _ in v.attributes))]
+            indices = self.buffers.get((v.name, "indices"))
         if stage.attributes:  # state read back before each draw: bytes as bytes, floats as floats
             vertices = vertices or []
             for attribute, ref in stage.attributes.items():
@@ -95,7 +99,7 @@ class Executor:
         try:
             command = DrawCommand(self.group, stage.name, stage.fragment, stage.vertex,
                                   stage.defines, stage.interface, stage.vertex_interface,
-                                  vertices, stage.primitive, stage.state)
+                                  vertices, stage.primitive, stage.state, indices)
         except ShaderError as error:
             interface = stage.interface or stage.vertex_interface
             if interface is None:

@@ -100,7 +100,8 @@ class Vertices:
     """Vertex data of the frame's draws. ``texels``: the texel centres of ``count`` cells of a
     ``width`` x ``height`` grid, row by row (a particle's texel, or a sort slot's: ES 1.00 has no
     gl_VertexID), attribute ``a_texel``; ``data``: an array (n, k) of float32 with ``attributes``
-    ((name, components), ...) interleaved (a mesh)."""
+    ((name, components), ...) interleaved (a mesh). ``indices``: uint32 vertex indices the draw
+    walks (a static index buffer), or None."""
 
     name: str
     source: str
@@ -109,6 +110,7 @@ class Vertices:
     height: int = 0
     data: object = field(default=None, repr=False, compare=False)
     attributes: tuple = (("a_texel", 2),)
+    indices: object = field(default=None, repr=False, compare=False)
 
     def array(self):
         """The vertex data as an (n, k) float32 array."""

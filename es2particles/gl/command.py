@@ -57,12 +57,15 @@ class DrawCommand:
         full-screen triangle.
     primitive : str
         ``triangles`` or ``points``.
+    indices : buffer, optional
+        uint32 vertex indices the draws walk (a static index buffer; its owner's).
     state : DrawState
         Blending, depth, point size and sprites of every draw of the command.
     """
 
     def __init__(self, group, stage, fragment, vertex=FULLSCREEN, defines=None, interface=None,
-                 vertex_interface=None, vertices=None, primitive="triangles", state=DrawState()):
+                 vertex_interface=None, vertices=None, primitive="triangles", state=DrawState(),
+                 indices=None):
         if primitive not in PRIMITIVES:
             raise ParameterError(f"{stage}: primitive must be one of {PRIMITIVES}, got "
                                  f"{primitive!r}")
@@ -91,7 +94,7 @@ class DrawCommand:
         if vertices is None:
             self.vertex_array = group.fullscreen(self.program)
         else:
-            self.vertex_array = group.vertex_array(self.program, vertices)
+            self.vertex_array = group.vertex_array(self.program, vertices, indices)
         active = self.ctx.device.uniforms(self.program)
         self.active = set(active)
         self.samplers = sorted(name for name, u in active.items() if u.sampler)

@@ -286,8 +286,8 @@ class Context:
                                                            fragment_epilogue))
         return self._programs[key]
 
-    def vertex_array(self, program, content):
-        return self.own(self.device.vertex_array(program, content))
+    def vertex_array(self, program, content, indices=None):
+        return self.own(self.device.vertex_array(program, content, indices))
 
     def fullscreen(self, program):
         """A vertex array drawing the full-screen triangle of ``lib/fullscreen.vert``."""
@@ -396,8 +396,8 @@ class Group:
     def buffer(self, data):
         return self._keep(self.ctx.buffer(data))
 
-    def vertex_array(self, program, content):
-        return self._keep(self.ctx.vertex_array(program, content))
+    def vertex_array(self, program, content, indices=None):
+        return self._keep(self.ctx.vertex_array(program, content, indices))
 
     def fullscreen(self, program):
         return self._keep(self.ctx.fullscreen(program))

@@ -155,8 +155,13 @@ class GLDevice:
     def set_uniform(self, program, name, value):
         program[name].value = value
 
-    def vertex_array(self, program, content):
-        return self.mgl.vertex_array(program, content)
+    def vertex_array(self, program, content, indices=None):
+        """A vertex array of ``content``; ``indices``: a buffer of uint32 vertex indices that
+        the draws walk instead (one static index buffer: quads as two triangles)."""
+        if indices is None:
+            return self.mgl.vertex_array(program, content)
+        return self.mgl.vertex_array(program, content, index_buffer=indices,
+                                     index_element_size=4)
 
     def release(self, obj):
         import moderngl
@@ -403,8 +408,9 @@ class RecordingDevice:
     def set_uniform(self, program, name, value):
         program.details["values"][name] = value
 
-    def vertex_array(self, program, content):
-        vao = self._handle("vertex array", details={"program": program, "content": content})
+    def vertex_array(self, program, content, indices=None):
+        vao = self._handle("vertex array", details={"program": program, "content": content,
+                                                    "indices": indices})
         self._record("vertex array", vertex_array=vao, program=program)
         return vao
 

@@ -11,6 +11,10 @@
 // mass), u_drag (6 pi eta r / m), u_jitter (random acceleration, per sqrt(s)), u_max_speed,
 // u_sliding, u_bounce, u_substep (the longest sub-step move, world units), u_surface_speed (the
 // fastest the object's surface moves) and lib/field3d.glsl's.
+// ORIENTED (the confetti, scenes/confetti.py): a fourth quantity, normal, the octahedral unit
+// vector a particle's quad faces (lib/octahedral.glsl), and its pass WRITE_NORMAL: drawn at
+// random at birth, set to the normal of the last surface touched in a step (the object's, turned
+// with it, or the floor's), else turning at u_tumble radians a second about an axis of its own.
 #include "lib/life.glsl"
 #include "lib/drag.glsl"
 
@@ -23,7 +27,11 @@ struct Particle {
     vec3 x;
     vec3 v;
     vec2 life;
+    vec3 n;  // ORIENTED: the way its quad faces
 };
+
+// The normal of the last surface a sub-step touched this step (zero: none).
+vec3 touched;
 
 // Four more numbers in [0, 1) per particle and step (life_random's are the emission's).
 vec4 flight_random(vec2 uv)
@@ -32,6 +40,8 @@ vec4 flight_random(vec2 uv)
 }
 
 #include "lib/field3d.glsl"
+#include "lib/trig.glsl"
+#include "lib/sequence.glsl"
 
 // A unit tangent of n at the angle 2 pi turn.
 vec3 random_tangent(vec3 n, float turn)
@@ -85,11 +95,14 @@ void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, Pose pose, float
         }
         vec3 surface = surface_velocity(x, pose);
         vec3 relative = v - surface;
-        respond(x, relative, a, d * u_pose.w, rotate(n, u_spin.xyz, pose.angle), turn);
+        vec3 world = rotate(n, u_spin.xyz, pose.angle);
+        respond(x, relative, a, d * u_pose.w, world, turn);
         v = relative + surface;
+        touched = world;
     }
     if (x.y < 0.0) {
         respond(x, v, a, x.y, vec3(0.0, 1.0, 0.0), turn);
+        touched = vec3(0.0, 1.0, 0.0);
     }
 }
 
@@ -129,10 +142,32 @@ Particle emit(vec2 uv)
     float across = 6.2831853 * r.z;
     p.v = u_launch.xyz + u_launch.w * r.w * vec3(cos(across), 0.0, sin(across));
     p.life = vec2(0.0, mix(u_lifetime.x, u_lifetime.y, s.x));
+    // A random facing, uniform on the sphere (trig.glsl's sin and cos: a browser's built-in
+    // ones may be 2^-11 off, and the facing is stored to 16 bits).
+    float z = 2.0 * s.y - 1.0;
+    vec2 around = trig_sin_cos(6.2831853 * s.z);
+    p.n = vec3(sqrt(max(1.0 - z * z, 0.0)) * around.yx, z);
     return p;
 }
 
-Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
+#ifdef ORIENTED
+// The facing after a step in flight: turned by u_tumble dt about an axis across it, fixed for
+// the particle (from its texel), so each tumbles end over end at its own angle.
+vec3 tumble(vec3 n, vec2 uv)
+{
+    vec3 r = particle_sequence(uv);
+    vec2 around = trig_sin_cos(6.2831853 * r.x);
+    float z = 2.0 * r.y - 1.0;
+    vec3 random = vec3(sqrt(max(1.0 - z * z, 0.0)) * around.yx, z);
+    vec3 across = cross(n, random);
+    vec3 axis = dot(across, across) > 1e-12 ? normalize(across)
+        : normalize(cross(n, abs(n.y) < 0.99 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0)));
+    vec2 turn = trig_sin_cos(u_tumble * u_dt);
+    return normalize(n * turn.y + cross(axis, n) * turn.x);
+}
+#endif
+
+Particle particle_step(vec3 x, vec3 v, vec2 life, vec3 n, vec2 uv)
 {
     if (!(finite(x) && finite(v) && finite(life))) {
         return emit(uv);
@@ -141,11 +176,16 @@ Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
     p.x = x;
     p.v = v;
     p.life = vec2(life.x + u_dt, life.y);
+    p.n = n;
     if (life_emits(life, p.life, u_dt)) {
         return emit(uv);
     }
     if (life_alive(life)) {
+        touched = vec3(0.0);
         integrate(p.x, p.v, flight_random(uv));
+#ifdef ORIENTED
+        p.n = dot(touched, touched) > 0.0 ? touched : tumble(n, uv);
+#endif
         // Out of the position range (past the floor's edge, above the top) a write would clamp
         // it onto an invisible wall: it dies and is emitted again.
         vec3 hi = u_position_lo.xyz + u_position_span.xyz;
@@ -158,11 +198,19 @@ Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
 
 void main()
 {
-    Particle p = particle_step(read_position(v_uv), read_velocity(v_uv), read_life(v_uv), v_uv);
+#ifdef ORIENTED
+    vec3 n = octahedral_decode(read_normal(v_uv));
+#else
+    vec3 n = vec3(0.0, 1.0, 0.0);
+#endif
+    Particle p = particle_step(read_position(v_uv), read_velocity(v_uv), read_life(v_uv), n,
+                               v_uv);
 #if defined(WRITE_LIFE)
     write_life(p.life);
 #elif defined(WRITE_POSITION)
     write_position(p.x);
+#elif defined(WRITE_NORMAL)
+    write_normal(octahedral_encode(p.n));
 #else
     write_velocity(p.v);
 #endif

@@ -263,6 +263,21 @@
     gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
     gl.bufferData(gl.ARRAY_BUFFER, data, gl.STATIC_DRAW);
     vertexData[name] = { buffer, attributes: v.attributes, count: v.count };
+    if (v.indices !== undefined) {
+      // One static index buffer (quads as two triangles): 32-bit indices where the context has
+      // OES_element_index_uint, else 16-bit ones, which reach 65536 vertices.
+      const wide = new Uint32Array(bytes(v.indices).buffer);
+      const uint = gl.getExtension("OES_element_index_uint");
+      if (!uint && v.count > 65536) {
+        fail(`${name}: ${v.count} vertices need 32-bit indices, and this context has no ` +
+             "OES_element_index_uint");
+      }
+      const elements = gl.createBuffer();
+      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, elements);
+      gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, uint ? wide : Uint16Array.from(wide), gl.STATIC_DRAW);
+      vertexData[name].elements = elements;
+      vertexData[name].indexType = uint ? gl.UNSIGNED_INT : gl.UNSIGNED_SHORT;
+    }
   }
 
   // A stage whose vertex shader reads the state from attributes (no vertex texture fetch): each
@@ -544,7 +559,14 @@
     if (state.blend) { gl.enable(gl.BLEND); BLENDS[state.blend](); }
     if (state.depth_test) { gl.enable(gl.DEPTH_TEST); gl.depthMask(state.depth_write); }
     attributes(p, vertices);
-    gl.drawArrays(stage.primitive === "points" ? gl.POINTS : gl.TRIANGLES, first, count);
+    const mode = stage.primitive === "points" ? gl.POINTS : gl.TRIANGLES;
+    if (vertices.elements) {
+      gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, vertices.elements);
+      const size = vertices.indexType === gl.UNSIGNED_INT ? 4 : 2;
+      gl.drawElements(mode, count, vertices.indexType, first * size);
+    } else {
+      gl.drawArrays(mode, first, count);
+    }
     gl.disable(gl.BLEND);
     gl.disable(gl.DEPTH_TEST);
     gl.depthMask(true);

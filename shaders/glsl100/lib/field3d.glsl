@@ -11,18 +11,8 @@
 // bits, GB the octahedral normal (for lossy block compression); else RG the distance in 16 bits
 // (high, low bytes) and BA the octahedral normal.
 #include "lib/pack.glsl"
+#include "lib/octahedral.glsl"
 
-// Two numbers in [-1, 1] to a unit vector: the octahedron |x| + |y| + |z| = 1, its lower half
-// folded out over the corners.
-vec3 octahedral_decode(vec2 e)
-{
-    vec3 n = vec3(e, 1.0 - abs(e.x) - abs(e.y));
-    if (n.z < 0.0) {
-        vec2 s = vec2(e.x >= 0.0 ? 1.0 : -1.0, e.y >= 0.0 ? 1.0 : -1.0);
-        n.xy = (1.0 - abs(e.yx)) * s;
-    }
-    return normalize(n);
-}
 
 // The NEAREST voxel's normal n, and its distance carried from the voxel's centre to q along n
 // (exact for flat faces). Outside the field's box: far, and no normal to speak of.

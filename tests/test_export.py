@@ -279,7 +279,7 @@ def test_export_writes_one_self_contained_page(tmp_path):
 
 # --- the 3D scenes: sprites, meshes, sort, shadow map, a moving object ---------------------------
 
-SCENES_3D = [Fountain(), Collision3D(), Confetti(), Smoke()]
+SCENES_3D = [Fountain(), Collision3D(), Collision3D(shadows="on"), Confetti(), Smoke()]
 SIZE_3D = (256, 256)
 N_3D = 4096
 # Measured on Chromium's SwiftShader against llvmpipe (README): drawing the same state differs

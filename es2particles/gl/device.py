@@ -20,7 +20,8 @@ import re
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
-BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303)}  # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA)
+# (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA), (ZERO, SRC_COLOR): a product, what light passes.
+BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303), "multiply": (0, 0x0300)}
 PRIMITIVES = ("triangles", "points")
 GL_POINT_SPRITE = 0x8861
 GL_TEXTURE_2D = 0x0DE1
@@ -29,8 +30,9 @@ GL_SAMPLER_2D = 0x8B5E
 
 @dataclass(frozen=True)
 class DrawState:
-    """The GL state of one draw: blending (None, ``"add"``: ONE, ONE, or ``"over"``:
-    premultiplied alpha), depth test, depth writes (with the test), the vertex shader's point size
+    """The GL state of one draw: blending (None, ``"add"``: ONE, ONE, ``"over"``: premultiplied
+    alpha, or ``"multiply"``: the target times the colour), depth test, depth writes (with the
+    test), colour writes (off: a depth-only draw), the vertex shader's point size
     (``point_size``) and point sprites (``sprites``: gl_PointCoord varies over a point)."""
 
     blend: str = None
@@ -38,6 +40,7 @@ class DrawState:
     depth_write: bool = True
     point_size: bool = False
     sprites: bool = False
+    colour_write: bool = True
 
     def __post_init__(self):
         if self.blend not in (None, *BLEND_FUNCTIONS):
@@ -47,6 +50,8 @@ class DrawState:
     def describe(self):
         """A few words for a printed plan."""
         words = [f"{self.blend} blend" if self.blend else "no blend"]
+        if not self.colour_write:
+            words = ["depth only"]
         if self.depth_test:
             words.append("depth test" + (" and writes" if self.depth_write else ", no writes"))
         if self.sprites:
@@ -157,7 +162,11 @@ class GLDevice:
 
     def vertex_array(self, program, content, indices=None):
         """A vertex array of ``content``; ``indices``: a buffer of uint32 vertex indices that
-        the draws walk instead (one static index buffer: quads as two triangles)."""
+        the draws walk instead (one static index buffer: quads as two triangles). An attribute
+        the program does not use (a depth-only draw of a mesh needs no normal; the linker drops
+        it) is skipped over as padding."""
+        content = [_used(program, entry) for entry in content]
+        content = [entry for entry in content if len(entry) > 2]
         if indices is None:
             return self.mgl.vertex_array(program, content)
         return self.mgl.vertex_array(program, content, index_buffer=indices,
@@ -220,8 +229,11 @@ class GLDevice:
             flags |= moderngl.PROGRAM_POINT_SIZE
         if state.depth_test:
             flags |= moderngl.DEPTH_TEST
-        framebuffer.use()
+        # The masks are the framebuffer's, taken by GL when it is bound: set them first.
         framebuffer.depth_mask = bool(state.depth_write)
+        if not state.colour_write:
+            framebuffer.color_mask = (False, False, False, False)
+        framebuffer.use()
         self.mgl.enable_only(flags)
         if state.blend is not None:
             self.mgl.blend_func = BLEND_FUNCTIONS[state.blend]
@@ -234,6 +246,8 @@ class GLDevice:
             if point_sprite:
                 self._gl_function("glDisable", ctypes.c_uint)(GL_POINT_SPRITE)
             framebuffer.depth_mask = True
+            if not state.colour_write:
+                framebuffer.color_mask = (True, True, True, True)
             self.mgl.enable_only(moderngl.NOTHING)
 
     def _gl_function(self, name, *argtypes, required=False):
@@ -254,6 +268,25 @@ class GLDevice:
                                       f"moderngl on the {self.backend} back-end")
             return lambda *args: None
         return self._gl_calls[name]
+
+
+def _used(program, entry):
+    """A vertex array entry (buffer, "3f 3f", names...) with the attributes ``program`` does not
+    use turned into padding ("3f 3x4")."""
+    import moderngl
+
+    buffer, layout, *names = entry
+    parts, kept = [], []
+    for part, name in zip(layout.split(), names):
+        member = program.get(name, None) if hasattr(program, "get") else None
+        if isinstance(member, moderngl.Attribute):
+            parts.append(part)
+            kept.append(name)
+        else:
+            count = int(part[:-1] if part.endswith("f") else part.split("f")[0] or 1)
+            size = 4 if part.endswith("f") else int(part.split("f")[1])
+            parts.append(f"{count}x{size}")
+    return (buffer, " ".join(parts), *kept)
 
 
 class ProgramError(Exception):

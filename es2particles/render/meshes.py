@@ -20,7 +20,8 @@ class Mesh:
     """An opaque mesh: triangles (n, 3, 3) wound counter-clockwise seen from outside, with normals
     (n, 3, 3), a colour, and for a floor a checker of ``colour2`` in cells of ``checker`` units.
     In world coordinates, unless ``moves``: then at rest, placed each frame by the model matrix of
-    the scene's :class:`Motion` (a spinning or swaying obstacle)."""
+    the scene's :class:`Motion` (a spinning or swaying obstacle). ``casts_shadow``: it stops a
+    lamp's light (``render/lamp.py``; a floor only receives shadows)."""
 
     triangles: np.ndarray
     normals: np.ndarray
@@ -30,6 +31,7 @@ class Mesh:
     uvs: np.ndarray = None  # (n, 3, 2) texture coordinates, with ``texture``
     texture: np.ndarray = None  # (h, w, 4) uint8, multiplied into the colour
     moves: bool = False
+    casts_shadow: bool = True
 
 
 def floor(half_size=6.0, cell=1.0, colour=(0.32, 0.34, 0.40), colour2=(0.22, 0.23, 0.28)):
@@ -37,7 +39,8 @@ def floor(half_size=6.0, cell=1.0, colour=(0.32, 0.34, 0.40), colour2=(0.22, 0.2
     h = half_size
     corners = np.array([[-h, 0, -h], [h, 0, -h], [h, 0, h], [-h, 0, h]], float)
     triangles = np.stack([corners[[0, 2, 1]], corners[[0, 3, 2]]])
-    return Mesh(triangles, np.tile([0.0, 1.0, 0.0], (2, 3, 1)), colour, colour2, cell)
+    return Mesh(triangles, np.tile([0.0, 1.0, 0.0], (2, 3, 1)), colour, colour2, cell,
+                casts_shadow=False)
 
 
 def box(centre, half_size, colour=(0.75, 0.55, 0.35), texture=None):
@@ -197,30 +200,46 @@ def from_triangles(vertices, faces, colour=(0.6, 0.6, 0.6)):
     return Mesh(triangles, normals, colour)
 
 
-def plan_meshes(b, meshes, light, target, clear):
+def mesh_vertex_data(b, i, mesh):
+    """Register mesh ``i``'s vertex data (and its texture) with plan builder ``b`` the first time;
+    returns (the vertex data's name, defines, inputs) of the mesh's shaders."""
+    name = f"mesh {i}"
+    defines = {"CHECKER": None} if mesh.colour2 is not None else {}
+    inputs = {}
+    if mesh.texture is not None:
+        defines["TEXTURED"] = None
+        inputs["u_texture"] = Ref(f"{name} texture")
+    if name in b.vertices:
+        return name, defines, inputs
+    columns = [mesh.triangles.reshape(-1, 3), mesh.normals.reshape(-1, 3)]
+    attributes = (("a_position", 3), ("a_normal", 3))
+    if mesh.texture is not None:
+        columns.append(mesh.uvs.reshape(-1, 2))
+        attributes += (("a_uv", 2),)
+        h, w = mesh.texture.shape[:2]
+        # Row 0 of the upload is texture row v = 0, the bottom of the image.
+        b.resource(Resource(f"{name} texture", "image", (w, h), "rgba8", linear=True,
+                            data=np.ascontiguousarray(mesh.texture[::-1]),
+                            what="a mesh's texture"))
+    data = np.concatenate(columns, 1).astype(np.float32)
+    b.vertex_data(Vertices(name, "data", len(data), data=data, attributes=attributes))
+    return name, defines, inputs
+
+
+def plan_meshes(b, meshes, light, target, clear, only=None, lamp=None):
     """Add a stage per mesh to plan builder ``b``: each drawn into ``target`` with depth test and
-    writes, the first clearing it to ``clear`` (and its depth to 1). Returns the stages' names."""
+    writes, the first clearing it to ``clear`` (and its depth to 1); ``only``: the meshes'
+    numbers (1-based) to draw, in that order (default all); ``lamp``: (defines, inputs,
+    uniforms) of a lamp's light (``render/lamp.py``). Returns the stages' names."""
     light = tuple(float(v) for v in light)
     names = []
-    for i, mesh in enumerate(meshes, 1):
-        name = f"mesh {i}"
-        defines = {"CHECKER": None} if mesh.colour2 is not None else {}
-        columns = [mesh.triangles.reshape(-1, 3), mesh.normals.reshape(-1, 3)]
-        attributes = (("a_position", 3), ("a_normal", 3))
-        inputs = {}
-        if mesh.texture is not None:
-            defines["TEXTURED"] = None
-            columns.append(mesh.uvs.reshape(-1, 2))
-            attributes += (("a_uv", 2),)
-            h, w = mesh.texture.shape[:2]
-            # Row 0 of the upload is texture row v = 0, the bottom of the image.
-            b.resource(Resource(f"{name} texture", "image", (w, h), "rgba8", linear=True,
-                                data=np.ascontiguousarray(mesh.texture[::-1]),
-                                what="a mesh's texture"))
-            inputs["u_texture"] = Ref(f"{name} texture")
-        data = np.concatenate(columns, 1).astype(np.float32)
-        b.vertex_data(Vertices(name, "data", len(data), data=data, attributes=attributes))
+    for i in (only if only is not None else range(1, len(meshes) + 1)):
+        mesh = meshes[i - 1]
+        name, defines, inputs = mesh_vertex_data(b, i, mesh)
         uniforms = {"u_light": light, "u_colour": tuple(float(v) for v in mesh.colour)}
+        if lamp is not None:
+            defines, inputs = {**defines, **lamp[0]}, {**inputs, **lamp[1]}
+            uniforms.update(lamp[2])
         if mesh.colour2 is not None:
             uniforms.update(u_colour2=tuple(float(v) for v in mesh.colour2),
                             u_checker=float(mesh.checker))
@@ -232,10 +251,11 @@ def plan_meshes(b, meshes, light, target, clear):
         what = ", ".join(filter(None, [f"{len(mesh.triangles)} triangles",
                                        "checkered" if mesh.colour2 is not None else "",
                                        "textured" if mesh.texture is not None else "",
-                                       "moves" if mesh.moves else ""]))
+                                       "moves" if mesh.moves else "",
+                                       "lit by the lamp through the light map" if lamp else ""]))
         b.stage(Stage(name, "mesh", "sprites/mesh.frag", "sprites/mesh.vert", defines,
                       inputs=inputs, target=Ref(target), vertices=name,
                       state=DrawState(depth_test=True), uniforms=uniforms, frame_uniforms=frame,
-                      clear=clear if i == 1 else None, what=what))
+                      clear=clear if not names else None, what=what))
         names.append(name)
     return names

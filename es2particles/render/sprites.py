@@ -149,6 +149,7 @@ class Sprites(Rendering):
     size_law: str = "perspective"
     law_anchor: tuple = (0.0, 0.0)
     law_distance: float = 1.0
+    lamp: object = None
 
     settings = ("point_size",)
     has_camera = True
@@ -166,6 +167,13 @@ class Sprites(Rendering):
                                  f"1 / distance, as their shadows do (got {tuple(self.attenuation)})")
         check_range("opacity", self.opacity, 0.0, 1.0)
         check_range("growth", self.growth, 0.01, 100.0)
+        if self.lamp is not None:
+            if self.shadow is not None:
+                raise ParameterError("one kind of shadow at a time: an opacity shadow map "
+                                     "(shadow) or the lamp's light map (lamp)")
+            if (a, b) != (0.0, 0.0) or self.size_law != "perspective":
+                raise ParameterError("the lamp's shadows need sprites of a world size: "
+                                     "attenuation (0, 0, c) and the perspective size law")
         if self.size_law not in SIZE_LAWS:
             raise ParameterError(f"size law must be one of {', '.join(SIZE_LAWS)}, got "
                                  f"{self.size_law!r}")
@@ -308,7 +316,15 @@ class Sprites(Rendering):
         background = tuple(float(v) for v in self.background)
         b.resource(Resource("image", "target", size, "rgba8", depth=True, linear=True,
                             what="the picture, with its depth"))
-        plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
+        if self.lamp is not None:
+            from .lamp import plan_lamp
+
+            per_focal = pixel_size / np.sqrt(c)
+            light_focal = self.lamp.camera().focal_pixels(self.lamp.size)
+            plan_lamp(b, self, ("light_size", per_focal, light_focal, float(self.size_spread),
+                                size[1]))
+        else:
+            plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
             vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},
@@ -316,7 +332,7 @@ class Sprites(Rendering):
             state=DrawState(blend=self.blend, depth_test=True, depth_write=False,
                             point_size=True, sprites=True),
             uniforms=uniforms, generated=generated_values(interface, layout),
-            frame_uniforms=frame, clear=None if self.meshes else (*background, 1.0),
+            frame_uniforms=frame, clear=None if self.meshes or self.lamp else (*background, 1.0),
             what=f"{layout.count} point sprites in {order}, vertex texture fetch of "
                  f"{', '.join(self.reads)}"))
         return "image"

@@ -20,6 +20,7 @@ from ..errors import ParameterError
 from ..fields.field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
 from ..frame.motion import Motion
 from ..params import param
+from ..render.lamp import Lamp
 from .emitter import Emitter, EmitterParams, blend, eye, lifetimes, sprite, target, time_step
 
 FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
@@ -91,6 +92,13 @@ class Collision3DParams(EmitterParams):
                         metavar="AX,AY,AZ,PERIOD", help="move the object to and fro (period 0: "
                                                         "still)")
     scale: float = param(1.0, 0.05, 20.0, help="the object's scale about its centre")
+    shadows: str = param("off", choices=("on", "off"),
+                         help="the chapter's shadows: a lamp whose light map the particles and "
+                              "the object darken, on the object and the floor")
+    lamp: tuple = param((1.6, 5.5, 1.2), (-20.0, 0.5, -20.0), (20.0, 40.0, 20.0), count=3,
+                        unit="m", help="where the lamp hangs (it looks at the object)")
+    lamp_angle: float = param(62.0, 10.0, 150.0, unit="degrees",
+                              help="the lamp's cone, full angle: its disc of light")
 
     def check(self):
         super().check()
@@ -287,7 +295,15 @@ class Collision3D(Emitter):
                       scale=float(p.scale))
 
     def sprites(self):
-        return {"size_spread": 0.3, "tint": (0.75, 0.85, 1.0, 0.8), "opacity": 0.9}
+        p = self.params
+        lamp = None
+        if p.shadows == "on":
+            lo, hi = self.field.bounds
+            centre = tuple(float(v) for v in (lo + hi) / 2)
+            lamp = Lamp(position=p.lamp, target=(centre[0], 0.0, centre[2]), angle=p.lamp_angle,
+                        opacity=0.5)
+        return {"size_spread": 0.3, "tint": (0.75, 0.85, 1.0, 0.8), "opacity": 0.9,
+                "lamp": lamp}
 
     def describe(self):
         p, f = self.params, self.field

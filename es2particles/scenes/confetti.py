@@ -29,6 +29,10 @@ class ConfettiParams(Collision3DParams):
                         help=f"the shapes cut from the quads: {', '.join(SHAPES)}")
     launch_spread: float = param(1.2, 0.0, 100.0, unit="m/s", option=False,
                                  help="the launch velocity's random spread")
+    # The lamp's shadows are drawn for sprites; the quads have none yet.
+    shadows: str = param("off", choices=("off",), option=False, help="no shadows for quads")
+    lamp: tuple = param((1.6, 5.5, 1.2), count=3, option=False, help="unused")
+    lamp_angle: float = param(62.0, option=False, help="unused")
 
     def check(self):
         super().check()

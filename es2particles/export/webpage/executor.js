@@ -530,7 +530,8 @@
 
   // -- running a stage: the same for every kind ---------------------------------------------------
   const BLENDS = { add: () => gl.blendFunc(gl.ONE, gl.ONE),
-                   over: () => gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA) };
+                   over: () => gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA),
+                   multiply: () => gl.blendFunc(gl.ZERO, gl.SRC_COLOR) };
   const live = {};  // uniform -> values the sliders set
   const cursors = {};
 
@@ -558,6 +559,7 @@
     const state = stage.state;
     if (state.blend) { gl.enable(gl.BLEND); BLENDS[state.blend](); }
     if (state.depth_test) { gl.enable(gl.DEPTH_TEST); gl.depthMask(state.depth_write); }
+    if (state.colour_write === false) gl.colorMask(false, false, false, false);
     attributes(p, vertices);
     const mode = stage.primitive === "points" ? gl.POINTS : gl.TRIANGLES;
     if (vertices.elements) {
@@ -567,6 +569,7 @@
     } else {
       gl.drawArrays(mode, first, count);
     }
+    gl.colorMask(true, true, true, true);
     gl.disable(gl.BLEND);
     gl.disable(gl.DEPTH_TEST);
     gl.depthMask(true);

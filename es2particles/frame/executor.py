@@ -143,6 +143,8 @@ class Executor:
         made = self.resources[ref.resource]
         if not isinstance(made, Textures):
             return made  # an image
+        if ref.when == "depth":
+            return made.depth  # a target's depth texture
         return (made.written if ref.when == "written" else made.fronts)[ref.part]
 
     def front(self, name, part=0):

@@ -42,7 +42,8 @@ from .state import Layout
 class Ref:
     """Where a sampler's texture comes from, or where a stage draws: part ``part`` of resource
     ``resource``; of a ping-pong pair, ``front`` (the latest value: last step's, during a step)
-    or ``written`` (this step's, written by an earlier pass of the same step)."""
+    or ``written`` (this step's, written by an earlier pass of the same step); ``depth``: a
+    target's depth texture."""
 
     resource: str
     part: int = 0
@@ -176,7 +177,7 @@ class Stage:
 # --- frame values -------------------------------------------------------------------------------
 
 FRAME_VALUES = ("step", "view_projection", "eye", "forward", "depth_range", "model",
-                "sprite_size", "jogl_sprite_size", "light_size")
+                "sprite_size", "jogl_sprite_size", "light_size", "depth_planes")
 
 
 def depth_range(lo, hi, camera):
@@ -221,6 +222,8 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
         return tuple(float(v) for v in camera.eye)
     if name == "forward":
         return tuple(float(v) for v in camera.forward)
+    if name == "depth_planes":  # the camera's near and far: a depth buffer's value to a distance
+        return (float(camera.near), float(camera.far), 1.0 if camera.ortho is not None else 0.0)
     if name == "depth_range":
         near, far = depth_range(*args, camera)
         return (far, 1.0 / max(far - near, 1e-30))

@@ -151,14 +151,15 @@ class Textures:
 
     ``fronts`` hold the latest value; a draw writes part k into ``framebuffer(k)`` (the back
     texture) and ``swap()`` makes the backs the fronts, so no draw ever reads and writes one
-    texture. A target with ``depth`` has one depth buffer, shared by its framebuffers.
+    texture. A target with ``depth`` has one depth buffer, shared by its framebuffers (with
+    ``depth="texture"``, a depth texture that later draws may sample).
     """
 
     def __init__(self, group, size, fmt, parts=1, buffers=1, depth=False, linear=False):
         self.ctx, self.size, self.fmt = group.ctx, tuple(size), fmt
         self.textures = [[group.texture(self.size, fmt, filter_nearest=not linear)
                           for _ in range(buffers)] for _ in range(parts)]
-        self.depth = group.depth(self.size) if depth else None
+        self.depth = group.depth(self.size, texture=depth == "texture") if depth else None
         self.framebuffers = [[group.framebuffer(t, self.depth) for t in pair]
                              for pair in self.textures]
 

@@ -66,6 +66,13 @@ class Capabilities:
         return cls(**values)
 
     @property
+    def depth_texture(self):
+        """True where a depth buffer can be a texture that shaders sample: core in desktop GL
+        (1.4), an extension in ES 2.0 (OES_depth_texture) and WebGL 1 (WEBGL_depth_texture)."""
+        es = "ES" in self.version or "WebGL" in self.version
+        return not es or bool({"GL_OES_depth_texture", "WEBGL_depth_texture"} & self.extensions)
+
+    @property
     def astc(self):
         """True where the driver lists ASTC LDR textures."""
         return "GL_KHR_texture_compression_astc_ldr" in self.extensions
@@ -266,9 +273,10 @@ class Context:
     def framebuffer(self, texture, depth=None):
         return self.own(self.device.framebuffer(texture, depth))
 
-    def depth(self, size):
-        """A depth buffer of ``size`` (for a framebuffer that depth-tests)."""
-        return self.own(self.device.depth_buffer(tuple(size)))
+    def depth(self, size, texture=False):
+        """A depth buffer of ``size`` (for a framebuffer that depth-tests); with ``texture``, a
+        depth texture that shaders can also sample."""
+        return self.own(self.device.depth_buffer(tuple(size), texture))
 
     def buffer(self, data):
         return self.own(self.device.buffer(data))
@@ -389,9 +397,9 @@ class Group:
     def framebuffer(self, texture, depth=None):
         return self._keep(self.ctx.framebuffer(texture, depth))
 
-    def depth(self, size):
-        """A depth buffer of ``size`` (for a framebuffer that depth-tests)."""
-        return self._keep(self.ctx.depth(size))
+    def depth(self, size, texture=False):
+        """A depth buffer of ``size`` (for a framebuffer that depth-tests), or a depth texture."""
+        return self._keep(self.ctx.depth(size, texture))
 
     def buffer(self, data):
         return self._keep(self.ctx.buffer(data))

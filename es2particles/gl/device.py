@@ -129,8 +129,15 @@ class GLDevice:
         tex.repeat_x = tex.repeat_y = False
         return tex, error
 
-    def depth_buffer(self, size):
-        return self.mgl.depth_renderbuffer(tuple(size))
+    def depth_buffer(self, size, texture=False):
+        if not texture:
+            return self.mgl.depth_renderbuffer(tuple(size))
+        import moderngl
+
+        depth = self.mgl.depth_texture(tuple(size))
+        depth.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        depth.compare_func = ""  # sampled as a value, not compared
+        return depth
 
     def framebuffer(self, colour, depth=None):
         return self.mgl.framebuffer(color_attachments=[colour], depth_attachment=depth)
@@ -412,8 +419,8 @@ class RecordingDevice:
         self._record("compressed texture", texture=tex, block=compressed.block)
         return tex, "GL_NO_ERROR"
 
-    def depth_buffer(self, size):
-        depth = self._handle("depth buffer", size=tuple(size))
+    def depth_buffer(self, size, texture=False):
+        depth = self._handle("depth buffer", size=tuple(size), details={"texture": texture})
         self._record("depth buffer", depth=depth)
         return depth
 

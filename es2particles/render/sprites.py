@@ -27,6 +27,11 @@ BLENDS = ("add", "over")
 # sprite's size over the camera's squared xz distance to an anchor (the fountain's base), as a
 # fraction of its squared distance at the start, clamped to the point size range.
 SIZE_LAWS = ("perspective", "jogl")
+# Sprites drawn into a buffer of their own (soft, or at a lower resolution) come back over the
+# picture by one of these (sprites/upsample.frag); the scene's distance they fade by is read
+# from the picture's depth texture or from a packed pre-pass (lib/depth.glsl).
+UPSAMPLES = ("nearest", "bilinear", "bilateral")
+SCENE_DEPTHS = ("auto", "texture", "packed")
 ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
          "size": ("size_factor", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR"),
          "orientation": ("orientation", (1,), "ORIENTATION")}
@@ -60,11 +65,43 @@ def smoke_texture(size=64):
     return (rgba * 255).round().astype(np.uint8)
 
 
-SPRITES = {"fireball": fireball_texture, "disc": disc_texture, "smoke": smoke_texture}
+def puff_texture(size=64, seed=7):
+    """The ARM chapter's smoke sprite: a noise texture that reads as a volume. Alpha is a soft
+    radial falloff broken by fractal value noise; the colour is shaded as a lit ball (its
+    normal from the disc, lit from the upper left) times the noise, so overlapping puffs look
+    like lumpy smoke rather than flat discs."""
+    rng = np.random.default_rng(seed)
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size * 2 - 1
+    noise = np.zeros((size, size))
+    for octave in range(4):
+        cells = 4 * 2 ** octave
+        grid = rng.random((cells + 1, cells + 1))
+        u = (x + 1) / 2 * cells
+        v = (y + 1) / 2 * cells
+        i, j = np.minimum(u.astype(int), cells - 1), np.minimum(v.astype(int), cells - 1)
+        fu, fv = u - i, v - j
+        fu, fv = fu * fu * (3 - 2 * fu), fv * fv * (3 - 2 * fv)
+        value = ((grid[j, i] * (1 - fu) + grid[j, i + 1] * fu) * (1 - fv)
+                 + (grid[j + 1, i] * (1 - fu) + grid[j + 1, i + 1] * fu) * fv)
+        noise += value / 2 ** octave
+    noise /= noise.max()
+    r2 = np.clip(x * x + y * y, 0, 1)
+    falloff = (1 - r2) ** 2
+    alpha = np.clip(falloff * (0.35 + 0.9 * noise), 0, 1)
+    normal_z = np.sqrt(1 - r2)
+    lit = np.clip(-0.45 * x - 0.45 * y + 0.77 * normal_z, 0, 1)  # y runs down the image
+    shade = np.clip((0.55 + 0.45 * lit) * (0.8 + 0.25 * noise), 0, 1)
+    rgba = np.stack([shade, shade, shade, alpha], -1)
+    return (rgba * 255).round().astype(np.uint8)
+
+
+SPRITES = {"fireball": fireball_texture, "disc": disc_texture, "smoke": smoke_texture,
+           "puff": puff_texture}
 
 
 def load_sprite(spec):
-    """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc``, ``smoke`` or a PNG path."""
+    """A sprite texture (h, w, 4) uint8: ``fireball``, ``disc``, ``smoke``, ``puff`` or a PNG
+    path."""
     if spec in SPRITES:
         return SPRITES[spec]()
     from ..io.images import read_image
@@ -82,6 +119,30 @@ def sprite_image(spec):
                                  f"{spec.dtype}")
         return spec
     return load_sprite(spec)
+
+
+def plan_depth_prepass(b, meshes, size):
+    """The opaque scene's distance packed into an RGBA8 target (for a context that cannot
+    sample a depth buffer): each mesh drawn again with ``sprites/depth.frag``."""
+    from ..frame.motion import IDENTITY
+    from .meshes import mesh_vertex_data
+
+    b.resource(Resource("scene depth", "target", size, "rgba8", depth=True,
+                        what="the opaque scene's distance, packed in 16 bits (no depth "
+                             "textures to sample)"))
+    far = (254 / 255, 254 / 255, 0.0, 1.0)  # pack16(1): the far plane
+    for i, mesh in enumerate(meshes, 1):
+        name, _, _ = mesh_vertex_data(b, i, mesh)
+        frame = {"u_view_projection": ("view_projection",), "u_planes": ("depth_planes",)}
+        uniforms = {}
+        if mesh.moves:
+            frame["u_model"] = ("model",)
+        else:
+            uniforms["u_model"] = IDENTITY
+        b.stage(Stage(f"depth: mesh {i}", "depth", "sprites/depth.frag", "sprites/mesh.vert",
+                      target=Ref("scene depth"), vertices=name,
+                      state=DrawState(depth_test=True), uniforms=uniforms, frame_uniforms=frame,
+                      clear=far if i == 1 else None, what="its distance, packed"))
 
 
 # --- the declaration ----------------------------------------------------------------------------
@@ -150,6 +211,10 @@ class Sprites(Rendering):
     law_anchor: tuple = (0.0, 0.0)
     law_distance: float = 1.0
     lamp: object = None
+    soft: float = 0.0
+    buffer_scale: float = 1.0
+    upsample: str = "bilateral"
+    scene_depth: str = "auto"
 
     settings = ("point_size",)
     has_camera = True
@@ -174,6 +239,16 @@ class Sprites(Rendering):
             if (a, b) != (0.0, 0.0) or self.size_law != "perspective":
                 raise ParameterError("the lamp's shadows need sprites of a world size: "
                                      "attenuation (0, 0, c) and the perspective size law")
+        check_range("soft (fade distance)", self.soft, 0.0, 1e3)
+        if not 0.0 < float(self.buffer_scale) <= 1.0:
+            raise ParameterError(f"buffer scale must be in (0, 1], got {self.buffer_scale!r}")
+        check_range("buffer scale", self.buffer_scale, 0.01, 1.0)
+        if self.upsample not in UPSAMPLES:
+            raise ParameterError(f"upsample must be one of {', '.join(UPSAMPLES)}, got "
+                                 f"{self.upsample!r}")
+        if self.scene_depth not in SCENE_DEPTHS:
+            raise ParameterError(f"scene depth must be one of {', '.join(SCENE_DEPTHS)}, got "
+                                 f"{self.scene_depth!r}")
         if self.size_law not in SIZE_LAWS:
             raise ParameterError(f"size law must be one of {', '.join(SIZE_LAWS)}, got "
                                  f"{self.size_law!r}")
@@ -281,11 +356,14 @@ class Sprites(Rendering):
                     "u_tint": tuple(float(v) for v in self.tint)}
         if self.growth != 1:
             uniforms["u_growth"] = float(self.growth)
+        # A buffer of their own at a lower resolution draws the sprites at its own scale.
+        buffered = self.soft > 0 or self.buffer_scale < 1
+        drawn_pixels = pixel_size * float(self.buffer_scale)
         frame = {"u_view_projection": ("view_projection",), "u_eye": ("eye",),
-                 "u_size": ("sprite_size", pixel_size, float(self.size_spread))}
+                 "u_size": ("sprite_size", drawn_pixels, float(self.size_spread))}
         if self.size_law == "jogl":  # one size a frame, from the camera: no attenuation
             uniforms["u_attenuation"] = (1.0, 0.0, 0.0)
-            frame["u_size"] = ("jogl_sprite_size", pixel_size, float(self.size_spread),
+            frame["u_size"] = ("jogl_sprite_size", drawn_pixels, float(self.size_spread),
                                *map(float, self.law_anchor), float(self.law_distance))
         vertices = None
         order = "texel order"
@@ -314,8 +392,17 @@ class Sprites(Rendering):
                "u_attenuation": (a, b_, c), "u_fade": float(fade)}
         interface = stage_interface(tuple(quantities), quantities, fmt, own)
         background = tuple(float(v) for v in self.background)
-        b.resource(Resource("image", "target", size, "rgba8", depth=True, linear=True,
-                            what="the picture, with its depth"))
+        depth_texture = False
+        if buffered:
+            if self.scene_depth == "texture" and not caps.depth_texture:
+                raise CapabilityError("scene depth 'texture': this context cannot sample a depth "
+                                      "buffer (no OES_depth_texture); use packed (or auto)")
+            depth_texture = self.meshes and (self.scene_depth == "texture" or (
+                self.scene_depth == "auto" and caps.depth_texture))
+        b.resource(Resource("image", "target", size, "rgba8",
+                            depth="texture" if depth_texture else True, linear=True,
+                            what="the picture, with its depth" + (
+                                " (a texture the sprites read)" if depth_texture else "")))
         if self.lamp is not None:
             from .lamp import plan_lamp
 
@@ -325,6 +412,12 @@ class Sprites(Rendering):
                                 size[1]))
         else:
             plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
+        what = (f"{layout.count} point sprites in {order}, vertex texture fetch of "
+                f"{', '.join(self.reads)}")
+        if buffered:
+            return self._plan_buffered(b, defines, interface, {**self.role_inputs(interface),
+                                                               **inputs},
+                                       vertices, uniforms, frame, depth_texture, what)
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
             vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},
@@ -333,6 +426,58 @@ class Sprites(Rendering):
                             point_size=True, sprites=True),
             uniforms=uniforms, generated=generated_values(interface, layout),
             frame_uniforms=frame, clear=None if self.meshes or self.lamp else (*background, 1.0),
-            what=f"{layout.count} point sprites in {order}, vertex texture fetch of "
-                 f"{', '.join(self.reads)}"))
+            what=what))
         return "image"
+
+    def _plan_buffered(self, b, defines, interface, inputs, vertices, uniforms, frame,
+                       depth_texture, what):
+        """The sprites into a buffer of their own (soft: fading into the scene behind them; at
+        ``buffer_scale`` of the picture's resolution), then laid over the picture by the
+        upsample stage into the picture that is presented."""
+        size, layout = b.size, b.layout
+        scene = {}
+        if self.meshes:
+            scene = {"SCENE_DEPTH": None, **({"SCENE_DEPTH_TEXTURE": None} if depth_texture
+                                            else {})}
+            if depth_texture:
+                depth = Ref("image", when="depth")
+            else:
+                depth = Ref("scene depth")
+                plan_depth_prepass(b, self.meshes, size)
+        w, h = (max(1, int(round(v * self.buffer_scale))) for v in size)
+        fmt = "rgba16f" if b.caps.blendable.get("rgba16f") else "rgba8"
+        b.resource(Resource("sprite buffer", "target", (w, h), fmt, linear=True,
+                            what=f"the sprites alone, premultiplied, at {self.buffer_scale:g} "
+                                 f"of the picture's resolution"))
+        # With no opaque scene behind them, nothing hides or softens the sprites.
+        planes = {"u_planes": ("depth_planes",)} if self.meshes else {}
+        depth_input = {"u_scene_depth": depth} if self.meshes else {}
+        soft = {"u_soft": max(float(self.soft), 1e-3),
+                "u_target_size": (float(w), float(h))} if self.meshes else {}
+        b.stage(Stage(
+            "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert",
+            {**defines, **({"SOFT": None} if self.meshes else {}), **scene},
+            vertex_interface=interface,
+            inputs={**inputs, **depth_input}, target=Ref("sprite buffer"), vertices=vertices,
+            primitive="points", count=layout.count,
+            state=DrawState(blend=self.blend, point_size=True, sprites=True),
+            uniforms={**uniforms, **soft},
+            generated=generated_values(interface, layout), frame_uniforms={**frame, **planes},
+            clear=(0.0, 0.0, 0.0, 0.0),
+            what=what + (f", fading over {self.soft:g} m into the scene behind"
+                         if self.soft > 0 else ", hidden behind the scene")))
+        b.resource(Resource("picture", "target", size, "rgba8", linear=True,
+                            what="the picture with the sprites laid over it"))
+        bilateral = self.upsample == "bilateral" and self.meshes  # it follows the scene's depth
+        b.stage(Stage(
+            "upsample", "upsample", "sprites/upsample.frag",
+            defines={f"UPSAMPLE_{self.upsample.upper()}": None, **(scene if bilateral else {}),
+                     **({"ADDITIVE": None} if self.blend == "add" else {})},
+            inputs={"u_image": Ref("image"), "u_smoke": Ref("sprite buffer"),
+                    **(depth_input if bilateral else {})},
+            target=Ref("picture"),
+            uniforms={"u_smoke_size": (float(w), float(h)),
+                      **({"u_depth_falloff": 0.1} if bilateral else {})},
+            frame_uniforms=planes if bilateral else {},
+            what=f"{self.upsample} upsampling of the sprites' {w}x{h} buffer over the picture"))
+        return "picture"

@@ -92,6 +92,8 @@ class Collision3DParams(EmitterParams):
                         metavar="AX,AY,AZ,PERIOD", help="move the object to and fro (period 0: "
                                                         "still)")
     scale: float = param(1.0, 0.05, 20.0, help="the object's scale about its centre")
+    opacity: float = param(0.9, 0.0, 1.0, help="a sprite's opacity at its centre (the chapter's "
+                                               "smoke: low, with --sprite puff --blend add)")
     shadows: str = param("off", choices=("on", "off"),
                          help="the chapter's shadows: a lamp whose light map the particles and "
                               "the object darken, on the object and the floor")
@@ -302,7 +304,7 @@ class Collision3D(Emitter):
             centre = tuple(float(v) for v in (lo + hi) / 2)
             lamp = Lamp(position=p.lamp, target=(centre[0], 0.0, centre[2]), angle=p.lamp_angle,
                         opacity=0.5)
-        return {"size_spread": 0.3, "tint": (0.75, 0.85, 1.0, 0.8), "opacity": 0.9,
+        return {"size_spread": 0.3, "tint": (0.75, 0.85, 1.0, 0.8), "opacity": p.opacity,
                 "lamp": lamp}
 
     def describe(self):

@@ -33,6 +33,13 @@ class ConfettiParams(Collision3DParams):
     shadows: str = param("off", choices=("off",), option=False, help="no shadows for quads")
     lamp: tuple = param((1.6, 5.5, 1.2), count=3, option=False, help="unused")
     lamp_angle: float = param(62.0, option=False, help="unused")
+    soft: float = param(0.0, option=False, help="unused: quads are opaque")
+    opacity: float = param(0.9, option=False, help="unused: quads are opaque")
+    scene_depth: str = param("auto", choices=("auto",), option=False,
+                             help="unused: quads are opaque")
+    buffer_scale: float = param(1.0, option=False, help="unused: quads are opaque")
+    upsample: str = param("bilateral", choices=("bilateral",), option=False,
+                          help="unused: quads are opaque")
 
     def check(self):
         super().check()

@@ -23,7 +23,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..render.camera import Camera, orbit
-from ..render.sprites import SIZE_LAWS, Sprites
+from ..render.sprites import SCENE_DEPTHS, SIZE_LAWS, UPSAMPLES, Sprites
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Scene
 
@@ -51,7 +51,9 @@ def blend(default):
 
 
 def sprite(default):
-    return param(default, text=True, help="sprite texture: fireball, disc, smoke or a PNG path")
+    return param(default, text=True,
+                 help="sprite texture: fireball, disc, smoke, puff (the chapter's noise volume) "
+                      "or a PNG path")
 
 
 @dataclass(frozen=True)
@@ -70,6 +72,21 @@ class EmitterParams(Params):
     fov: float = param(45.0, 1.0, 179.0, unit="degrees", help="the camera's vertical field of view")
     blend: str = blend("add")
     sprite: str = sprite("fireball")
+    soft: float = param(0.0, 0.0, 100.0, unit="m",
+                        help="soft particles (the ARM chapter's): a sprite fades over this "
+                             "distance into the opaque scene behind it; 0: depth-tested")
+    buffer_scale: float = param(1.0, 0.05, 1.0,
+                                help="draw the sprites into a buffer of this share of the "
+                                     "picture's resolution (the chapter's 640x360 under 1080p: "
+                                     "0.33), laid over the picture by --upsample")
+    scene_depth: str = param("auto", choices=SCENE_DEPTHS,
+                             help="where soft sprites read the scene's distance: its depth "
+                                  "texture (OES_depth_texture), a packed pre-pass (plain ES "
+                                  "2.0), or auto: the texture where the context has it")
+    upsample: str = param("bilateral", choices=UPSAMPLES,
+                          help="how a smaller sprite buffer comes back over the picture: the "
+                               "nearest texel, bilinear, or bilateral (following the scene's "
+                               "depth at object edges)")
     size_law: str = param("perspective", choices=SIZE_LAWS,
                           help="how sprite sizes follow the camera: perspective (size over the "
                                "eye distance) or jogl (the seed's: size over the camera's squared "
@@ -176,7 +193,9 @@ class Emitter(Scene):
             "law_distance": float(np.hypot(default.eye[0] - default.target[0],
                                            default.eye[2] - default.target[2]))}
         return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "blend": p.blend,
-                          "sprite": p.sprite, **self.sprites(), **law,
+                          "sprite": p.sprite, "soft": p.soft, "buffer_scale": p.buffer_scale,
+                          "upsample": p.upsample, "scene_depth": p.scene_depth,
+                          **self.sprites(), **law,
                           "meshes": tuple(self.meshes())})
 
 

@@ -524,6 +524,8 @@
       case "eye": return exact ? initial : camera.eye();
       case "forward": return exact ? initial : camera.forward();
       case "depth_range": return exact ? initial : camera.depthRange(spec[1], spec[2]);
+      case "depth_planes": return [plan.camera.near, plan.camera.far,
+                                   plan.camera.ortho == null ? 0 : 1];
       default: return fail(`${stage.name}: unknown frame value ${spec[0]}`);
     }
   }

@@ -15,6 +15,15 @@ varying vec3 v_colour;  // the particle's own tint (a COLOUR role), in place of 
 #ifdef ORIENTATION
 varying float v_angle;  // the texture turned counterclockwise on screen (an ORIENTATION role)
 #endif
+#ifdef SOFT
+// Soft particles (the ARM chapter's): the sprite fades over u_soft as it nears the opaque scene
+// behind it, and is gone behind it (drawn into a buffer with no depth test; lib/depth.glsl).
+precision highp float;
+#include "lib/pack.glsl"
+#include "lib/depth.glsl"
+uniform float u_soft;
+uniform vec2 u_target_size;  // the buffer's pixels: gl_FragCoord over it is a screen position
+#endif
 
 void main()
 {
@@ -35,6 +44,10 @@ void main()
     vec3 tint = v_colour;
 #else
     vec3 tint = u_tint.rgb;
+#endif
+#if defined(SOFT) && defined(SCENE_DEPTH)
+    float gap = scene_distance(gl_FragCoord.xy / u_target_size) - view_distance(gl_FragCoord.z);
+    a *= clamp(gap / u_soft, 0.0, 1.0);
 #endif
     gl_FragColor = vec4(mix(t.rgb, tint, u_tint.a) * (v_light * a), a);
 }

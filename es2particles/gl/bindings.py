@@ -119,21 +119,26 @@ def _ranges(out, quantity):
 def _reader(out, quantity, fmt, this_step):
     q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
-    ret = GLSL_TYPES[c]
     samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
     for part, sampler in enumerate(samplers):
         out.declare(f"uniform sampler2D {sampler};", sampler, f"part {part + 1} of quantity {q!r}")
         out.samplers[sampler] = ("quantity", q, part, this_step)
+    _read_function(out, q, c, fmt, [f"texture2D({s}, uv)" for s in samplers])
+
+
+def _read_function(out, q, c, fmt, texels):
+    """``read_q(uv)`` from ``texels``, a GLSL vec4 expression per part: RGBA8 byte pairs
+    decoded into the range, floats as they are."""
     if fmt == "rgba8":
-        decoded = [f"state_decode(texture2D({s}, uv), u_{q}_lo.{axes}, u_{q}_span.{axes})"
-                   for s, axes in zip(samplers, ("xy", "zw"))]
+        decoded = [f"state_decode({t}, u_{q}_lo.{axes}, u_{q}_span.{axes})"
+                   for t, axes in zip(texels, ("xy", "zw"))]
         if c <= 2:
             body = decoded[0] + (".x" if c == 1 else "")
         else:
             body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
     else:
-        body = f"texture2D({samplers[0]}, uv)" + ("" if c == 4 else "." + "xyzw"[:c])
-    out.lines += [f"{ret} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
+        body = texels[0] + ("" if c == 4 else "." + "xyzw"[:c])
+    out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
 
 
 def _attribute_reader(out, quantity, fmt):
@@ -147,16 +152,7 @@ def _attribute_reader(out, quantity, fmt):
         out.declare(f"attribute vec4 {name};", name,
                     f"part {part + 1} of quantity {q!r}, read back")
         out.attributes[name] = (q, part)
-    if fmt == "rgba8":
-        decoded = [f"state_decode({a}, u_{q}_lo.{axes}, u_{q}_span.{axes})"
-                   for a, axes in zip(names, ("xy", "zw"))]
-        if c <= 2:
-            body = decoded[0] + (".x" if c == 1 else "")
-        else:
-            body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
-    else:
-        body = names[0] + ("" if c == 4 else "." + "xyzw"[:c])
-    out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
+    _read_function(out, q, c, fmt, names)
 
 
 def _writer(out, quantity, fmt, part):

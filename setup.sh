@@ -5,7 +5,8 @@
 #
 #   sh setup.sh          the program
 #   sh setup.sh test     also the test extra and what the tests drive: the Khronos GLSL
-#                        reference compiler, Arm's ASTC encoder and Chromium
+#                        reference compiler, Arm's ASTC encoder, Chromium, and an X screen
+#                        (Xvfb, xdotool, Mesa's GLX) for the live window
 #
 # Packages already installed are left alone; apt-get runs through sudo unless run as root.
 # Elsewhere than Debian or Ubuntu it says which packages it would have installed, and goes on.
@@ -15,7 +16,7 @@ cd "$(dirname "$0")"
 packages="python3-venv python3-pip libegl1 libgl1-mesa-dri libegl-mesa0"
 extra=""
 if [ "${1:-}" = "test" ]; then
-  packages="$packages glslang-tools astcenc chromium"
+  packages="$packages glslang-tools astcenc chromium xvfb xdotool libglx-mesa0"
   extra="[test]"
 fi
 

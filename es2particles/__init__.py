@@ -38,4 +38,4 @@ __version__ = "0.1.0"
 # The subpackages and modules (what pdoc documents, and what `import *` brings); the names above
 # are reached as attributes (`from es2particles import Pipeline`), each from its module.
 __all__ = ["errors", "params", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run",
-           "export", "cluster", "report", "cli"]
+           "live", "export", "cluster", "report", "cli"]

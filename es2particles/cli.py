@@ -32,7 +32,7 @@ def build_parser(argv=None):
     info = commands.add_parser("info", help="print the GL context's capabilities")
     info.set_defaults(handler=_info)
     _add_scene_commands(commands, argv or ())
-    if argv and len(argv) >= 2 and argv[0] in ("run", "plan", "export") \
+    if argv and len(argv) >= 2 and argv[0] in SCENE_COMMANDS \
             and not argv[1].startswith("-"):
         parser.typed = f"es2particles {argv[0]} {argv[1]}"
     report = commands.add_parser("report", help="error against run time, and the stability suite")
@@ -221,18 +221,23 @@ def _report(args):
     print(f"wrote {path}")
 
 
+SCENE_COMMANDS = ("run", "plan", "export", "view")
+
+
 def _add_scene_commands(commands, argv):
     from .scenes import BUILT_IN, installed_scenes, scene_class
 
-    named = argv[1] if len(argv) >= 2 and argv[0] in ("run", "plan", "export") else None
+    named = argv[1] if len(argv) >= 2 and argv[0] in SCENE_COMMANDS else None
     scenes_found = {named: scene_class(named)} if named in BUILT_IN else installed_scenes()
     names = ", ".join(scenes_found)
-    handlers = {"run": _run, "plan": _plan, "export": _export}
+    handlers = {"run": _run, "plan": _plan, "export": _export, "view": _view}
     for command, text in (("run", "simulate a scene and write an image or animation"),
                           ("plan", "print the stages a scene's frame runs and what it leaves "
                                    "out"),
                           ("export", "write a scene as one WebGL 1 page that runs it in a "
-                                     "browser (no network)")):
+                                     "browser (no network)"),
+                          ("view", "show a scene live in a window (the view extra): keys and "
+                                   "the mouse move the camera, the sphere, the coefficients")):
         parser = commands.add_parser(command, help=f"{text} (scenes: {names})",
                                      description=f"{text}. Installed scenes: {names}.")
         scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
@@ -305,7 +310,7 @@ def _add_settings(parser, scene):
 def _add_run_options(parser, command):
     add = parser.add_argument
     out = {"export": "the page: an .html file",
-           "plan": None,
+           "plan": None, "view": None,
            "run": "output: .png image, or with --frames .webp/.gif/.png, or .mp4 (the video "
                   "extra)"}[command]
     if out:
@@ -313,6 +318,15 @@ def _add_run_options(parser, command):
     add("--config", default=None, metavar="RUN.toml",
         help="take the run from this file (written by --save-config); options given beside it "
              "override its values")
+    if command == "view":
+        add("--keys", default=None, metavar="KEYS.toml",
+            help="key bindings over the standard ones: a [keys] table of action = \"key\"")
+        add("--paused", action="store_true",
+            help="start paused: space plays, . steps once")
+        add("--exit-after", default=None, metavar="N",
+            help="close the window after N frames (scripts and tests)")
+        add("--screenshot", default=None, metavar="FILE.png",
+            help="write the last frame shown to this file when the window closes")
     if command != "run":
         return
     add("--save-config", default=None, metavar="RUN.toml",
@@ -340,7 +354,7 @@ def _add_run_options(parser, command):
 def with_config_scene(argv):
     """``argv`` with the scene of its ``--config`` file put after the command where no scene is
     typed (``es2particles run --config run.toml --out b.png``)."""
-    if len(argv) < 2 or argv[0] not in ("run", "plan", "export") or not argv[1].startswith("-"):
+    if len(argv) < 2 or argv[0] not in SCENE_COMMANDS or not argv[1].startswith("-"):
         return argv
     for i, token in enumerate(argv):
         path = argv[i + 1] if token == "--config" and i + 1 < len(argv) else (
@@ -444,6 +458,47 @@ def _export(args):
     print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "
           f"{plan['layout']['count']} particles, {passes} pass draws a step, "
           f"{len(plan['stages']) - passes} stages a frame; open it in a browser)")
+
+
+def _view(args):
+    """``view SCENE``: the scene live in a window, until it closes (``live/window.py``)."""
+    from .errors import check_range
+    from .frame.settings import DEFAULT, MAX_SIZE, SETTINGS, parse_size
+    from .io.output import check_output
+    from .live.controls import Bindings
+    from .live.view import LiveView
+    from .live.window import Window, screen_size
+
+    bindings = Bindings.read(args.keys) if args.keys is not None else Bindings()
+    exit_after = None if args.exit_after is None else int(check_range(
+        "--exit-after", _number(args.exit_after, "--exit-after"), 1, 10 ** 9, integer=True))
+    shot = None if args.screenshot is None else \
+        check_output(args.screenshot, "--screenshot", {".png": "PNG"})
+    run = run_of(args)
+    scene = run.check()
+    screen = screen_size()  # no display: one line, before any GL work
+    if run.settings.size is DEFAULT:  # the default picture, halved until the screen holds it
+        w, h = parse_size(SETTINGS["size"].default, MAX_SIZE)
+        while w > 0.9 * screen[0] or h > 0.9 * screen[1]:
+            w, h = w // 2, h // 2
+        run = run.with_settings(size=f"{w}x{h}")
+    with Window(parse_size(run.settings.size, MAX_SIZE), f"es2particles: {run.scene}") as window:
+        scene, pipeline = run.pipeline(window.ctx, scene)
+        with pipeline:
+            view = LiveView(pipeline, bindings, paused=args.paused)
+            frames, seconds, status = window.show(view, exit_after, shot)
+            line = f"viewed {frames} frames in {seconds:.2f} s: {status}"
+            if view.view is not None:
+                camera = view.view.camera()
+                line += (" | camera eye " + ",".join(f"{v:.6f}" for v in camera.eye)
+                         + " target " + ",".join(f"{v:.6f}" for v in camera.target))
+            if view.grip is not None:
+                line += " | grip " + ",".join(f"{v:.6f}" for v in view.centre)
+            for c in view.controls:
+                line += f" | {c.label} {view.values[c.uniform][c.component]:.6f}"
+            if shot is not None and frames:
+                line += f" | wrote {shot}"
+            print(line)
 
 
 def _run(args):

@@ -86,16 +86,8 @@ HEADER = "# An es2particles run: es2particles run --config {name} --out picture.
 def read_run(path):
     """The :class:`Run` a TOML run file describes (``write_run`` writes one); any key the file
     should not hold, or a value of the wrong kind, is one line naming the file and the key."""
-    from pathlib import Path
-
-    path = Path(path)
     where = str(path)
-    if not path.is_file():
-        raise ParameterError(f"--config {where!r}: no such file")
-    try:
-        data = _toml_loads(path.read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, ValueError) as error:  # TOMLDecodeError is a ValueError
-        raise ParameterError(f"--config {where!r} is not a TOML run file: {error}") from None
+    data = read_toml(path, "--config", "a TOML run file")
     unknown = [k for k in data if k not in RUN_KEYS]
     if unknown:
         raise ParameterError(f"{where}: unknown key {unknown[0]!r} (a run file holds "
@@ -204,6 +196,20 @@ def _number(data, key, where):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ParameterError(f"{where}: {key!r} must be a number, got {value!r}")
     return value
+
+
+def read_toml(path, option, what="TOML"):
+    """The tables of the TOML file at ``path`` given as ``option``: where it is not a file, or
+    not ``what``, one line naming both."""
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise ParameterError(f"{option} {str(path)!r}: no such file")
+    try:
+        return _toml_loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, ValueError) as error:  # TOMLDecodeError is a ValueError
+        raise ParameterError(f"{option} {str(path)!r} is not {what}: {error}") from None
 
 
 def _toml_loads(text):

@@ -10,8 +10,8 @@ import es2particles
 
 PACKAGE = Path(es2particles.__file__).resolve().parent
 # Lowest first: a module may import its own layer and the ones before it.
-LAYERS = ["errors", "params", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run", "export",
-          "cluster", "report", "cli", "__main__", "__init__"]
+LAYERS = ["errors", "params", "twins", "io", "gl", "fields", "frame", "render", "scenes", "run", "live",
+          "export", "cluster", "report", "cli", "__main__", "__init__"]
 
 
 def module_name(path):

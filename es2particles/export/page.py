@@ -213,6 +213,7 @@ def page_plan(scene, settings=None, **given):
             "programs": programs.sources, "density": density,
             "camera": _camera(camera), "motion": _motion(plan.motion),
             "controls": [asdict(c) for c in scene.controls()],
+            "grip": _grip(scene.grip()),
             # Whether a vertex shader samples a texture (particles by vertex texture fetch):
             # the page needs vertex texture units only then.
             "vertex_fetch": any(s.vertex_interface is not None and s.vertex_interface.samplers
@@ -279,6 +280,12 @@ def _camera(camera):
         return None
     return {"eye": list(camera.eye), "target": list(camera.target), "up": list(camera.up),
             "fov": camera.fov, "near": camera.near, "far": camera.far, "ortho": camera.ortho}
+
+
+def _grip(grip):
+    """A scene's grip (what a drag moves over the floor), or None."""
+    return None if grip is None else {k: _json_number(v) if k not in ("uniform", "velocity")
+                                      else v for k, v in asdict(grip).items()}
 
 
 def _motion(motion):

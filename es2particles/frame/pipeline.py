@@ -170,11 +170,12 @@ class Pipeline:
         """The scene's camera of frame ``frame`` of ``frames`` (None for a 2D scene)."""
         return None if self.plan.camera is None else self.plan.camera(frame, frames)
 
-    def render(self, frame=0, frames=1):
+    def render(self, frame=0, frames=1, camera=None, model=None):
         """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): every
         stage of the frame, the density accumulated over the run's samples; returns the final
-        texture."""
-        env = self.executor.frame(self.camera(frame, frames))
+        texture. ``camera`` and ``model`` (a live view's) replace the scene's camera of the frame
+        and its motion's model matrix."""
+        env = self.executor.frame(camera or self.camera(frame, frames), model)
         self._read = None
         bare = self._draw_without_sprites(env) if self._unlit_check is not None else None
         for stage in self.plan.frame_stages:

@@ -174,6 +174,11 @@ class Context:
             self.device.make_current()
             Context._current = self
 
+    def screen(self):
+        """The framebuffer of the window this context was made on (a window's context only)."""
+        self.make_current()
+        return self.device.screen()
+
     def flush(self):
         """Hand the queued GL work to the driver without waiting for it (glFlush)."""
         self.device.flush()

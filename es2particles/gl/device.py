@@ -20,6 +20,8 @@ import re
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
+from ..errors import ContextError
+
 # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA), (ZERO, SRC_COLOR): a product, what light passes.
 BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303), "multiply": (0, 0x0300)}
 PRIMITIVES = ("triangles", "points")
@@ -95,6 +97,12 @@ class GLDevice:
         call for it; where moderngl's own loader is not there it does nothing (a flush changes
         speed, never results)."""
         self._gl_function("glFlush")()
+
+    def screen(self):
+        """The window's own framebuffer, where the context was made on a window."""
+        if self.mgl.screen is None:
+            raise ContextError("this context has no window to draw on (it is headless)")
+        return self.mgl.screen
 
     def close(self):
         self.mgl.release()

@@ -36,6 +36,23 @@ class Control:
 
 
 @dataclass(frozen=True)
+class Grip:
+    """A sphere of the scene that a hand drags over the floor (a live view, the page): its rest
+    centre ``centre`` is components 0-2 of uniform ``uniform``, its rest centre's velocity while
+    dragged is uniform ``velocity`` (both declared by the scene's passes), and the drag keeps
+    that centre's x within ``x_range`` and z within ``z_range``. Its moving meshes are modelled
+    about the origin and placed by the scene's motion, whose offset is the rest centre: a drag
+    moves them by what it moves the rest centre."""
+
+    uniform: str
+    velocity: str
+    centre: tuple
+    radius: float
+    x_range: tuple
+    z_range: tuple
+
+
+@dataclass(frozen=True)
 class Fill:
     """A start drawn uniformly from the box [lo, hi] (one bound per component, or one for all)."""
 
@@ -125,6 +142,10 @@ class Scene:
 
     def background(self):
         """An (h, w, 4) uint8 image drawn under the particles, or None."""
+        return None
+
+    def grip(self):
+        """The :class:`Grip` a hand may drag, or None (the default: nothing to drag)."""
         return None
 
     def controls(self):

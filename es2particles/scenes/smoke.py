@@ -17,6 +17,7 @@ from ..errors import ParameterError
 from ..frame.settings import Defaults
 from ..params import param
 from ..render.shadow import OpacityShadow
+from .base import Grip
 from .emitter import Emitter, EmitterParams, blend, eye, lifetimes, sprite, target
 
 HALF = 4.0  # x and z of the position range: [-4, 4]
@@ -123,8 +124,8 @@ class SmokeParams(EmitterParams):
 
         return {"u_dt": self.dt, "u_tau": self.tau, "u_relax": tuple(map(float, relaxation(self.dt, self.tau))),
                 "u_gravity": self.gravity, "u_wind": self.wind, "u_noise": self.noise,
-                "u_sphere": self.sphere, "u_sway": self.sway, "u_emitter": self.emitter,
-                "u_emission": self.emission, "u_lifetime": self.lifetime}
+                "u_sphere": self.sphere, "u_sphere_drift": (0.0, 0.0, 0.0), "u_sway": self.sway,
+                "u_emitter": self.emitter,                "u_emission": self.emission, "u_lifetime": self.lifetime}
 
 
 class Smoke(Emitter):
@@ -179,6 +180,15 @@ class Smoke(Emitter):
 
         p = self.params
         return Motion(p.dt, offset=p.sphere[:3], sway=p.sway[:3], period=p.sway[3])
+
+    def grip(self):
+        """The sphere, which a hand drags over the floor in a live view or the page: its rest
+        centre is u_sphere's xyz and its drag velocity u_sphere_drift; the swaying sphere stays
+        within the position range's x and z (as ``check`` asks of --sphere and --sway)."""
+        p = self.params
+        reach = [HALF - abs(a) - p.sphere[3] for a in (p.sway[0], p.sway[2])]
+        return Grip("u_sphere", "u_sphere_drift", p.sphere[:3], p.sphere[3],
+                    (-reach[0], reach[0]), (-reach[1], reach[1]))
 
     def sprites(self):
         p = self.params

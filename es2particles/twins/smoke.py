@@ -8,18 +8,21 @@ import numpy as np
 from . import flow
 
 
-def sphere(physics, t):
-    """(centre (3,), velocity (3,)) of the swaying sphere at time ``t``."""
+def sphere(physics, t, drift=(0.0, 0.0, 0.0)):
+    """(centre (3,), velocity (3,)) of the swaying sphere at time ``t``; ``drift``: the rest
+    centre's own velocity (a hand dragging it)."""
     p = physics
     w = 2 * np.pi / p.sway[3]
     amplitude = np.asarray(p.sway[:3], float)
-    return np.asarray(p.sphere[:3], float) + amplitude * np.sin(w * t), amplitude * w * np.cos(w * t)
+    return (np.asarray(p.sphere[:3], float) + amplitude * np.sin(w * t),
+            amplitude * w * np.cos(w * t) + np.asarray(drift, float))
 
 
-def air(physics, x, t):
-    """The air's velocity (n, 3) at points ``x`` (n, 3) and time ``t``."""
+def air(physics, x, t, drift=(0.0, 0.0, 0.0)):
+    """The air's velocity (n, 3) at points ``x`` (n, 3) and time ``t`` (``drift``: as for
+    :func:`sphere`)."""
     p = physics
-    centre, velocity = sphere(p, t)
+    centre, velocity = sphere(p, t, drift)
     offset = -p.noise[1] * p.noise[3] * np.asarray(p.wind, float) * t  # frozen turbulence,
     skewed = offset + offset.sum() / 3  # wrapped on the noise's period, into +-144.5 cells
     skewed -= 289.0 * np.floor(skewed / 289.0 + 0.5)

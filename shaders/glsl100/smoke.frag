@@ -17,18 +17,20 @@
 // emitter (keeping its velocity and the rest of its life: the life clock does not see it).
 // Uniforms, declared by the graph from the scene (scenes/smoke.py): u_dt, u_tau, u_relax,
 // u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
-// (rest centre, radius), u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
+// (rest centre, radius), u_sphere_drift, u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
 // u_emission (orbit period, spawn radius), u_lifetime. numpy twin: es2particles/twins/smoke.py.
 #include "lib/life.glsl"
 #include "lib/flow.glsl"
 
 const float TAU = 6.2831853;
 
-// The sphere's centre at time t (xyz) and its velocity (out).
+// The sphere's centre at time t (xyz) and its velocity (out): the sway about the rest centre,
+// plus u_sphere_drift, the rest centre's own velocity while a hand drags it (live views and the
+// page; zero otherwise).
 vec3 sphere_centre(float t, out vec3 velocity)
 {
     float w = TAU / u_sway.w;
-    velocity = u_sway.xyz * w * cos(w * t);
+    velocity = u_sway.xyz * w * cos(w * t) + u_sphere_drift;
     return u_sphere.xyz + u_sway.xyz * sin(w * t);
 }
 

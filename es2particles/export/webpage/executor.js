@@ -476,8 +476,53 @@
         state.moved = true;
         state.radius = Math.max(0.5, Math.min(50, state.radius * factor));
       },
+      // The ray [origin, direction] through pixel (x, y) of the picture, y down from the top
+      // (live/controls.py: ViewCamera.ray).
+      ray(x, y) {
+        const px = (2 * x / width - 1) * width / height, py = 1 - 2 * y / height;
+        const e = eye(), f = forward(), s = unit(cross(f, c.up)), u = cross(s, f);
+        const across = s.map((v, i) => px * v + py * u[i]);
+        if (c.ortho == null) {
+          const t = Math.tan(c.fov * Math.PI / 360);
+          return [e, unit(f.map((v, i) => v + t * across[i]))];
+        }
+        const h = c.ortho * state.radius / radius;
+        return [e.map((v, i) => v + h * across[i]), f];
+      },
     };
   })();
+
+  // The scene's grip (the smoke's sphere): where a drag has put its rest centre; the passes
+  // take it, and its velocity while it moves, at the next step (live/controls.py).
+  const grip = plan.grip && {
+    centre: plan.grip.centre.slice(), stepped: plan.grip.centre.slice(),
+    // Its centre as drawn after `step` steps: the model matrix's translation.
+    drawn(step) { const m = model(step); return [m[12], m[13], m[14]]; },
+    hit(origin, direction) {  // the distance along the ray to the sphere, or null
+      const c = grip.drawn(stepsDone), oc = origin.map((v, i) => v - c[i]);
+      const b = oc.reduce((s, v, i) => s + v * direction[i], 0);
+      const disc = b * b - (oc.reduce((s, v) => s + v * v, 0) - plan.grip.radius ** 2);
+      if (disc < 0) return null;
+      let t = -b - Math.sqrt(disc);
+      if (t < 0) t = -b + Math.sqrt(disc);
+      return t < 0 ? null : origin.map((v, i) => v + t * direction[i]);
+    },
+    drag(start, grabbed, origin, direction) {
+      if (Math.abs(direction[1]) < 1e-9) return;
+      const t = (grabbed[1] - origin[1]) / direction[1];
+      if (t <= 0) return;
+      const g = plan.grip, clamp = (v, [lo, hi]) => Math.max(lo, Math.min(hi, v));
+      grip.centre = [clamp(start[0] + origin[0] + t * direction[0] - grabbed[0], g.x_range),
+                     start[1],
+                     clamp(start[2] + origin[2] + t * direction[2] - grabbed[2], g.z_range)];
+    },
+    beforeStep() {  // the centre and its velocity for this step
+      const dt = plan.motion.dt, g = plan.grip;
+      live[g.velocity] = grip.centre.map((v, i) => (v - grip.stepped[i]) / dt);
+      live[g.uniform] = [...grip.centre, g.radius];
+      grip.stepped = grip.centre.slice();
+    },
+  };
 
   // The moving object's model matrix after `step` steps (frame/motion.py: Motion), column-major.
   function model(step) {
@@ -495,7 +540,8 @@
     for (let i = 0; i < 3; i += 1) {
       for (let j = 0; j < 3; j += 1) out[4 * j + i] = r[i][j];
       const turned = r[i][0] * m.pivot[0] + r[i][1] * m.pivot[1] + r[i][2] * m.pivot[2];
-      out[12 + i] = m.offset[i] + m.pivot[i] + m.sway[i] * sway - turned;
+      out[12 + i] = m.offset[i] + m.pivot[i] + m.sway[i] * sway - turned
+        + (grip ? grip.centre[i] - plan.grip.centre[i] : 0);
     }
     out[15] = 1;
     return out;
@@ -627,6 +673,7 @@
     .map(([name]) => name);
 
   function step() {
+    if (grip) grip.beforeStep();
     for (const stage of stepStages) run(stage);
     for (const name of swapped) swap(name);
     stepsDone += 1;
@@ -751,12 +798,25 @@
   }
   if (camera) {
     show("camera", "drag to orbit, wheel to zoom");
-    let dragging = null;
-    canvas.addEventListener("mousedown", (e) => { dragging = [e.clientX, e.clientY]; });
-    window.addEventListener("mouseup", () => { dragging = null; });
+    if (grip) show("sphere", "drag it over the floor");
+    let dragging = null, held = null;
+    // A pointer's pixel in the picture (the canvas may be shown scaled).
+    const pixel = (e) => {
+      const box = canvas.getBoundingClientRect();
+      return [(e.clientX - box.left) * width / box.width,
+              (e.clientY - box.top) * height / box.height];
+    };
+    canvas.addEventListener("mousedown", (e) => {
+      dragging = [e.clientX, e.clientY];
+      const [origin, direction] = camera.ray(...pixel(e));
+      const grabbed = grip && grip.hit(origin, direction);
+      held = grabbed ? [grip.centre.slice(), grabbed] : null;
+    });
+    window.addEventListener("mouseup", () => { dragging = held = null; });
     window.addEventListener("mousemove", (e) => {
       if (dragging === null) return;
-      camera.orbit(e.clientX - dragging[0], e.clientY - dragging[1]);
+      if (held) grip.drag(held[0], held[1], ...camera.ray(...pixel(e)));
+      else camera.orbit(e.clientX - dragging[0], e.clientY - dragging[1]);
       dragging = [e.clientX, e.clientY];
       if (!playing) frame();
     });
@@ -799,6 +859,9 @@
     // below 1) or farther, then draw the frame again.
     orbit(dx, dy) { camera.orbit(dx, dy); frame(); gl.finish(); },
     zoom(factor) { camera.zoom(factor); frame(); gl.finish(); },
+    // The grip's rest centre as the hand has put it, and the camera's eye now (tests).
+    grip() { return grip ? grip.centre.slice() : null; },
+    eye() { return camera ? camera.eye() : null; },
     // The raw RGBA8 texels of a quantity's part (front texture), width x height, base64.
     state(name, part = 0) {
       if (plan.resources[name] === undefined || plan.resources[name].kind !== "state") {

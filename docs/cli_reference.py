@@ -25,8 +25,8 @@ from es2particles.params import Param
 from es2particles.scenes import BUILT_IN, scene_class
 
 DOCS = Path(__file__).resolve().parent
-COMMANDS = ("info", "plan", "run", "export", "report")
-SCENE_COMMANDS = ("plan", "run", "export")
+COMMANDS = ("info", "plan", "run", "view", "export", "report")
+SCENE_COMMANDS = ("plan", "run", "view", "export")
 SCENE_DEFAULTS = set(Defaults.__dataclass_fields__)
 # An example of a refusal, produced by running it (nothing is written, no context is opened).
 REFUSED = ["run", "fountain", "--gradient", "ice", "--out", "fountain.png"]

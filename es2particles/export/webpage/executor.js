@@ -479,15 +479,16 @@
       // The ray [origin, direction] through pixel (x, y) of the picture, y down from the top
       // (live/controls.py: ViewCamera.ray).
       ray(x, y) {
-        const px = (2 * x / width - 1) * width / height, py = 1 - 2 * y / height;
+        const [w, h] = plan.size;  // (this closure's `height` is the eye's over the target)
+        const px = (2 * x / w - 1) * w / h, py = 1 - 2 * y / h;
         const e = eye(), f = forward(), s = unit(cross(f, c.up)), u = cross(s, f);
         const across = s.map((v, i) => px * v + py * u[i]);
         if (c.ortho == null) {
           const t = Math.tan(c.fov * Math.PI / 360);
           return [e, unit(f.map((v, i) => v + t * across[i]))];
         }
-        const h = c.ortho * state.radius / radius;
-        return [e.map((v, i) => v + h * across[i]), f];
+        const half = c.ortho * state.radius / radius;
+        return [e.map((v, i) => v + half * across[i]), f];
       },
     };
   })();
@@ -861,6 +862,8 @@
     zoom(factor) { camera.zoom(factor); frame(); gl.finish(); },
     // The grip's rest centre as the hand has put it, and the camera's eye now (tests).
     grip() { return grip ? grip.centre.slice() : null; },
+    // Where the ray through pixel (x, y) of the picture meets the grip, or null.
+    pick(x, y) { return grip ? grip.hit(...camera.ray(x, y)) : null; },
     eye() { return camera ? camera.eye() : null; },
     // The raw RGBA8 texels of a quantity's part (front texture), width x height, base64.
     state(name, part = 0) {

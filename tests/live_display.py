@@ -5,6 +5,7 @@ screenshots of the screen (pillow's ImageGrab over XCB), and the close button's 
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -34,7 +35,7 @@ class Display:
         if not number:
             raise RuntimeError("Xvfb did not start")
         self.name = f":{number}"
-        self.env = {**os.environ, "DISPLAY": self.name}
+        self.env = {**os.environ, "DISPLAY": self.name, "PYTHONFAULTHANDLER": "1"}
         self.env.pop("WAYLAND_DISPLAY", None)
 
     def xdotool(self, *args):
@@ -63,7 +64,10 @@ class Viewer:
             if time.monotonic() > deadline:
                 self.process.kill()
                 raise AssertionError("no window within 60 s")
-            found = subprocess.run(["xdotool", "search", "--onlyvisible", "--name", "^es2particles"],
+            # By the process's id (glfw sets _NET_WM_PID): a window of the test before may
+            # still be on the screen until the server has cleaned up after its process.
+            found = subprocess.run(["xdotool", "search", "--onlyvisible", "--pid",
+                                    str(self.process.pid), "--name", "^es2particles"],
                                    env=display.env, capture_output=True, text=True)
             if found.stdout.strip():
                 self.window = found.stdout.split()[0]
@@ -151,9 +155,9 @@ class Viewer:
         try:
             out, err = self.process.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
-            self.process.kill()
+            self.process.send_signal(signal.SIGABRT)  # faulthandler prints where it was
             out, err = self.process.communicate()
-            raise AssertionError(f"view did not end within {timeout} s: {err}")
+            raise AssertionError(f"view did not end within {timeout} s: {out} {err}")
         return self.process.returncode, out, err
 
 

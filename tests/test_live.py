@@ -73,22 +73,28 @@ def test_the_window_shows_the_scene_as_run_draws_it_and_keys_turn_the_camera(
 def test_a_drag_orbits_and_the_wheel_zooms(display, tmp_path):
     """A drag of 96 pixels right and 24 down on empty sky turns the eye -0.96 radians about the
     vertical through the target and raises it 0.24 radians; two wheel notches towards the
-    scene bring it to exp(-0.2) of its distance."""
+    scene bring it to exp(-0.2) of its distance; shift+S writes what the window shows."""
     viewer = Viewer(display, [*SMOKE, "--paused"], tmp_path)
     first = viewer.settled()
     viewer.drag((8, 8), (104, 32))
     orbited = viewer.changed_from(first)
     viewer.wheel(2)
-    viewer.changed_from(orbited)
+    zoomed = viewer.changed_from(orbited)
+    viewer.keys("shift+s")  # a screenshot: SMOKE-001.png, what the window shows
+    shot = tmp_path / "smoke-001.png"
+    deadline = time.monotonic() + 30
+    while not shot.exists() and time.monotonic() < deadline:
+        time.sleep(0.1)
     viewer.close_button()
     line = closing_line(viewer)
+    assert np.array_equal(np.asarray(Image.open(shot).convert("RGB")), zoomed)
     target = np.array([0.0, 2.4, 0.0])
     d = np.array([0.0, 2.6, 7.8]) - target
     r, a, e = np.linalg.norm(d), math.atan2(d[0], d[2]), math.asin(d[1] / np.linalg.norm(d))
     a, e, r = a - 0.96, e + 0.24, r * math.exp(-0.2)
     eye = target + r * np.array([math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a)])
     assert np.allclose(printed(line, "eye"), eye, atol=2e-6), line
-    assert leftovers(tmp_path) == []
+    assert leftovers(tmp_path) == ["smoke-001.png"]
 
 
 def pixel_of(point, eye, target, fov, size):

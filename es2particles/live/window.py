@@ -179,7 +179,10 @@ class Window:
                     say(f"wrote {save_image(view.pipeline.image(), free_name(view.scene.name))}")
                 if exit_after is not None and shown >= exit_after:
                     break
-                glfw.poll_events()
+                if view.paused:  # nothing moves but what the events move: wait for one
+                    glfw.wait_events_timeout(0.1)
+                else:
+                    glfw.poll_events()
             seconds = time.perf_counter() - began
             if screenshot is not None and shown:
                 save_image(view.pipeline.image(), screenshot)

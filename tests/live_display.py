@@ -66,7 +66,7 @@ class Viewer:
                 raise AssertionError("no window within 60 s")
             # By the process's id (glfw sets _NET_WM_PID): a window of the test before may
             # still be on the screen until the server has cleaned up after its process.
-            found = subprocess.run(["xdotool", "search", "--onlyvisible", "--pid",
+            found = subprocess.run(["xdotool", "search", "--all", "--onlyvisible", "--pid",
                                     str(self.process.pid), "--name", "^es2particles"],
                                    env=display.env, capture_output=True, text=True)
             if found.stdout.strip():

@@ -467,7 +467,7 @@ def _view(args):
     from .io.output import check_output
     from .live.controls import Bindings
     from .live.view import LiveView
-    from .live.window import Window, screen_size
+    from .live.window import Window
 
     bindings = Bindings.read(args.keys) if args.keys is not None else Bindings()
     exit_after = None if args.exit_after is None else int(check_range(
@@ -476,13 +476,10 @@ def _view(args):
         check_output(args.screenshot, "--screenshot", {".png": "PNG"})
     run = run_of(args)
     scene = run.check()
-    screen = screen_size()  # no display: one line, before any GL work
-    if run.settings.size is DEFAULT:  # the default picture, halved until the screen holds it
-        w, h = parse_size(SETTINGS["size"].default, MAX_SIZE)
-        while w > 0.9 * screen[0] or h > 0.9 * screen[1]:
-            w, h = w // 2, h // 2
-        run = run.with_settings(size=f"{w}x{h}")
-    with Window(parse_size(run.settings.size, MAX_SIZE), f"es2particles: {run.scene}") as window:
+    given = None if run.settings.size is DEFAULT else parse_size(run.settings.size, MAX_SIZE)
+    with Window(given, f"es2particles: {run.scene}",
+                default=parse_size(SETTINGS["size"].default, MAX_SIZE)) as window:
+        run = run.with_settings(size="{}x{}".format(*window.size))
         scene, pipeline = run.pipeline(window.ctx, scene)
         with pipeline:
             view = LiveView(pipeline, bindings, paused=args.paused)

@@ -301,17 +301,18 @@ def _codes(texels):
     return t[:, 0::2] * 256 + t[:, 1::2]
 
 
-def egl_state(gl, scene, steps, camera=None):
+def egl_state(gl, scene, steps, camera=None, model=None):
     """EGL after ``steps`` steps: each quantity's part texels, the picture of that state (seen
-    from ``camera``, default the scene's), and the texels after one more step."""
+    from ``camera``, default the scene's; the moving meshes placed by ``model``, default the
+    scene's motion), and the texels after one more step."""
     with Pipeline(gl, scene, particles=N_3D, size=SIZE_3D, steps=0) as pipeline:
         pipeline.begin(1)
         pipeline.step(steps)
         state = {q: [gl.read(t) for t in b.fronts] for q, b in pipeline.sim.buffers.items()}
-        env = pipeline.executor.frame(camera or pipeline.camera(0, 1))
+        env = pipeline.executor.frame(camera or pipeline.camera(0, 1), model)
         pipeline.executor.render(env)
-        image = pipeline.image() if camera is None else None
-        if camera is not None:
+        image = pipeline.image() if camera is None and model is None else None
+        if image is None:
             from es2particles.frame.pipeline import read_rgb
 
             image = read_rgb(gl, pipeline.executor.front(pipeline.plan.present))
@@ -565,14 +566,7 @@ def test_smoke_page_sphere_follows_a_mouse_drag_as_the_window_does(gl, browser, 
 
         model = motion.matrix(steps)
         model[:3, 3] += want - np.array(scene.params.sphere[:3])
-        with Pipeline(gl, scene, particles=N_3D, size=SIZE_3D, steps=0) as pipeline:
-            pipeline.begin(1)
-            for name, parts in state.items():
-                for part, data in enumerate(parts):
-                    gl.write(pipeline.sim.buffers[name].fronts[part], data)
-            pipeline.sim.steps_done = steps
-            pipeline.render(camera=camera, model=model)
-            moved = pipeline.image()
+        _, moved, _ = egl_state(gl, scene, steps, camera, model)
         web = page.image(SIZE_3D)
         compare_images(moved, web, "the sphere dragged on the page")
     finally:

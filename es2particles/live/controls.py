@@ -225,7 +225,3 @@ class Bindings:
         """The action of key ``key`` (a name of :data:`KEYS` without "shift+"), pressed with
         shift or not: shift+KEY's where it has one, else KEY's; or None."""
         return (shift and self.actions.get(f"shift+{key}")) or self.actions.get(key)
-
-    def describe(self):
-        return ", ".join(f"{'/'.join(keys)} {action.replace('_', ' ')}"
-                         for action, keys in self.keys.items() if keys)

@@ -49,7 +49,6 @@ class LiveView:
         self.screenshots = 0  # requests for a screenshot, taken by whoever shows the view
         self._drag = None
         self._debt, self._last = 0.0, None
-        self.frames = 0
         self.step_seconds = 0.0  # time spent in steps, and steps run (ms a step)
         self.steps_run = 0
         self.slowdown = 1.0  # real time over simulated time of the last frame (1: real time)
@@ -115,9 +114,7 @@ class LiveView:
         """Draw a frame as things stand; returns the presented texture."""
         self.start()
         camera = None if self.view is None else self.view.camera()
-        final = self.pipeline.render(0, 1, camera=camera, model=self.model())
-        self.frames += 1
-        return final
+        return self.pipeline.render(0, 1, camera=camera, model=self.model())
 
     def model(self):
         """The moving meshes' model matrix: the scene's motion, moved with the grip (None: the

@@ -16,6 +16,7 @@ from ..errors import ContextError, ParameterError
 from ..gl.context import Context
 from ..gl.device import GLDevice
 from ..gl.egl import MIN_GL_VERSION, probe_capabilities
+from .controls import KEYS
 
 NO_DISPLAY = ("no display to open a window on ({why}); `es2particles run` writes the same scene "
               "to files without one")
@@ -31,11 +32,8 @@ def _glfw():
 
 def key_names(glfw):
     """glfw key code -> the key's name in :data:`~es2particles.live.controls.KEYS`."""
-    names = {getattr(glfw, f"KEY_{n.upper()}"): n for n in
-             ("left", "right", "up", "down", "page_up", "page_down", "space", "escape", "period",
-              "comma", "minus", "equal", "tab", "enter", "backspace", "home", "end")}
-    names.update({getattr(glfw, f"KEY_{c.upper()}"): c for c in "abcdefghijklmnopqrstuvwxyz"})
-    names.update({getattr(glfw, f"KEY_{d}"): d for d in "0123456789"})
+    names = {getattr(glfw, f"KEY_{name.upper()}"): name for name in KEYS
+             if not name.startswith("shift+")}
     names[glfw.KEY_KP_ADD], names[glfw.KEY_KP_SUBTRACT] = "equal", "minus"
     return names
 
@@ -67,14 +65,19 @@ def _glfw_error(glfw):
 class Window:
     """A window of ``size`` (w, h) pixels titled ``title``, with a GL context: :attr:`ctx`.
 
-    Larger than the screen is an error naming ``--size``. Release it (``with``) after the
+    ``size`` None is ``default`` halved until the screen holds it (with a tenth to spare);
+    larger than the screen is an error naming ``--size``. Release it (``with``) after the
     pipelines made on its context."""
 
-    def __init__(self, size, title="es2particles"):
+    def __init__(self, size=None, title="es2particles", default=(1024, 1024)):
         self.glfw = _glfw()
         self.window = self.ctx = None
         screen = screen_size()  # starts glfw, or says why not
         try:
+            if size is None:
+                size = default
+                while size[0] > 0.9 * screen[0] or size[1] > 0.9 * screen[1]:
+                    size = (size[0] // 2, size[1] // 2)
             w, h = size
             if w > screen[0] or h > screen[1]:
                 raise ParameterError(f"--size {w}x{h} is larger than the screen ({screen[0]}x"

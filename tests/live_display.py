@@ -147,7 +147,7 @@ class Viewer:
         event = protocol.event.ClientMessage(window=window, client_type=d.intern_atom(
             "WM_PROTOCOLS"), data=(32, [delete, X.CurrentTime, 0, 0, 0]))
         window.send_event(event, event_mask=X.NoEventMask)
-        d.flush()
+        d.sync()  # a round trip: the server has taken the message before this connection closes
         d.close()
 
     def finish(self, timeout=60):

@@ -1,8 +1,10 @@
-"""The Clifford attractor against an independent float64 numpy run of its map, as de Jong's."""
+"""The Clifford attractor against an independent float64 numpy run of its map, as de Jong's: each
+particle within a bound derived from the format and float32 (tests/bounds.py)."""
 
 import numpy as np
 import pytest
 
+from bounds import U, half_code, rounding_error, trig_map_error
 from conftest import run_scene
 from es2particles import Simulation
 from es2particles.cli import main
@@ -10,7 +12,6 @@ from es2particles.scenes import Clifford
 from es2particles.scenes.clifford import clifford_map
 
 ISSUE_COEFFICIENTS = (-1.4, 1.6, 1.0, 0.7)
-TRIG_EPS = 2.0 ** -20
 
 
 def reference(scene, start, iterations):
@@ -20,14 +21,33 @@ def reference(scene, start, iterations):
                    (x0, y0), (x1, y1))
 
 
-def one_step_bound(scene, iterations):
-    """Half a code of each axis's range, plus float32 trig error carried by the map's Lipschitz
-    constant L = max(|a| (1 + |c|), |b| (1 + |d|))."""
-    a, b, c, d = (abs(k) for k in scene.coefficients)
-    lipschitz = max(a * (1 + c), b * (1 + d), 1.0)
+def map_terms(coefficients):
+    """x' = sin(a y) + c cos(a x), y' = sin(b x) + d cos(b y) as trig_map_error's terms."""
+    a, b, c, d = coefficients
+    return [[(1, a, 1, "sin"), (c, a, 0, "cos")], [(1, b, 0, "sin"), (d, b, 1, "cos")]]
+
+
+def one_step_bound(scene, start, iterations, dithered=False, start_error=None):
+    """Each particle's largest |GPU - float64| after one step from ``start``: the float32 map's
+    error carried along its float64 path (the start decoded again by the shader: one rounding of
+    each of the decode's two steps), plus the written position's rounding on the wider axis."""
     x0, y0, x1, y1 = scene.range
-    half_code = max(x1 - x0, y1 - y0) / 65024 / 2
-    return half_code + sum(lipschitz ** i for i in range(iterations)) * 2 * TRIG_EPS * (1 + max(c, d))
+    reach = max(abs(x0), abs(y0), x1, y1)
+    start_error = 2 * U * reach if start_error is None else start_error
+    _, carried = trig_map_error(map_terms(scene.coefficients), start, start_error, iterations)
+    widest = (x0, x1) if x1 - x0 >= y1 - y0 else (y0, y1)
+    return carried + rounding_error("rgba8", *widest, dithered=dithered)
+
+
+def check_one_step(label, scene, got, exact, bound):
+    """Every particle within its own bound (printed with the worst particle's error)."""
+    error = np.abs(got - exact).max(axis=1)
+    worst = np.argmax(error - bound)
+    x0, _, x1, _ = scene.range
+    print(f"{label}: max |error| {error.max():.3e}, half code {half_code(x0, x1):.3e}; nearest "
+          f"to its bound: particle {worst}, {error[worst]:.3e} of {bound[worst]:.3e}")
+    assert error[worst] <= bound[worst], (f"{label}: particle {worst} errs by {error[worst]:.3e}, "
+                                          f"above its bound {bound[worst]:.3e}")
 
 
 def histogram(scene, points, bins):
@@ -48,16 +68,24 @@ def test_view_and_range_come_from_the_coefficients():
 def test_one_step_matches_float64(gl):
     scene = Clifford(coefficients=ISSUE_COEFFICIENTS)
     start, got = run_scene(gl, scene, 2 ** 16, 1, seed=5, rounding="nearest")
-    error = np.abs(got - reference(scene, start, 3)).max()
-    bound = one_step_bound(scene, 3)
-    print(f"Clifford one step: max |error| {error:.3e} (bound {bound:.3e})")
-    assert error <= bound
+    check_one_step("Clifford one step", scene, got, reference(scene, start, 3),
+                   one_step_bound(scene, start, 3))
 
 
 def test_stateful_density_correlates_with_float64(gl):
     scene = Clifford(coefficients=ISSUE_COEFFICIENTS)  # stateful, dithered: the scene's defaults
     steps = 20
-    start, got = run_scene(gl, scene, 2 ** 18, steps, seed=7)
+    dithered = scene.defaults.rounding == "dither"
+    with Simulation(gl, scene.graph(), 2 ** 18, rounding=scene.defaults.rounding) as sim:
+        scene.initialise(sim, np.random.default_rng(7))
+        start = before = sim.download("position")
+        for step in range(steps):  # step by step: the map is chaotic
+            sim.step()
+            got = sim.download("position")
+            check_one_step(f"Clifford stateful step {step + 1}", scene, got,
+                           reference(scene, before, 3),
+                           one_step_bound(scene, before, 3, dithered=dithered))
+            before = got
     exact = start.copy()
     for _ in range(steps):
         exact = reference(scene, exact, 3)
@@ -73,10 +101,10 @@ def test_reseeded_clifford_matches_float64_per_particle(gl):
         got = sim.download("position")
         x0, y0, x1, y1 = scene.range
         start = (x0, y0) + sim.layout.texel_uv().astype(np.float64) * (x1 - x0, y1 - y0)
-    error = np.abs(got - reference(scene, start, 3)).max()
-    # the rasteriser interpolates v_uv in float32: a few ulps of start error, carried by L^3
-    bound = one_step_bound(scene, 3) + 4 * 2.0 ** -23 * 4 * 2.24 ** 3
-    assert error <= bound, (error, bound)
+    # the rasteriser interpolates v_uv in float32: 4 ulps of uv times the span, then one rounding
+    start_error = 4 * 2.0 ** -23 * max(x1 - x0, y1 - y0) + 2 * U * max(x1, y1)
+    check_one_step("reseeded Clifford", scene, got, reference(scene, start, 3),
+                   one_step_bound(scene, start, 3, start_error=start_error))
 
 
 @pytest.mark.gl

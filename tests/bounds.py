@@ -1,0 +1,83 @@
+"""Error bounds derived from the storage formats and float32, shared by the float64 comparisons.
+
+Every tolerance a GPU-against-float64 test uses is built from these, so that it says where it
+comes from (and prints it): half a code of a packed range, float32 rounding of the values a shader
+computes, and the trig error that ``test_numerics.py`` measures for ``lib/trig.glsl``. A test of
+each bound's sharpness (a half-code bias must fail it) lives with the test that uses it and in the
+mutation suite (``python -m tests.mutations``).
+"""
+
+import numpy as np
+
+CODES = 65024  # codes of a packed 16-bit value (lib/pack.glsl)
+U = 2.0 ** -24  # float32's unit roundoff: one rounding of a value x errs by at most |x| U
+# lib/trig.glsl's largest |error| against float64 sin and cos, for arguments within +-100:
+# measured, and asserted, by test_numerics.py::test_trig_is_float64_sin_and_cos_to_float32_rounding.
+TRIG_ERROR = 1.2e-7
+# float16's unit roundoff (10 stored mantissa bits)
+U16 = 2.0 ** -11
+
+
+def half_code(lo, hi):
+    """Half a code of the packed range [lo, hi]: the largest error of nearest rounding."""
+    return (np.asarray(hi, float) - np.asarray(lo, float)) / CODES / 2
+
+
+def codec_error(lo, hi):
+    """float32 rounding in one encode or decode of a value of [lo, hi] (state_unit, unpack16 and
+    state_decode each round a handful of times, every value at most max(|lo|, |hi|, hi - lo))."""
+    scale = np.maximum(np.maximum(np.abs(lo), np.abs(hi)), np.asarray(hi, float) - lo)
+    return 4 * U * scale
+
+
+def rounding_error(fmt, lo, hi, dithered=False):
+    """Largest error of writing a value of [lo, hi] in ``fmt`` and reading it back: half a code
+    (a whole code when dithered) for rgba8, half an ulp of the largest value for the float
+    formats, plus the codec's float32 rounding."""
+    if fmt == "rgba8":
+        return (2 if dithered else 1) * half_code(lo, hi) + 2 * codec_error(lo, hi)
+    unit = {"rgba16f": U16, "rgba32f": U}[fmt]
+    return unit * np.maximum(np.abs(lo), np.abs(hi))
+
+
+def mean_rounding_bound(errors_half_code, count, dithered=False):
+    """Six standard deviations of the mean of ``count`` independent rounding errors: uniform on
+    [-h, h] (nearest, variance h^2/3) or, dithered, 1 - f codes with probability f and -f with
+    1 - f (mean zero, variance f (1 - f) codes^2, at most h^2). A systematic bias of a fraction of
+    a code stands far outside it."""
+    variance = errors_half_code ** 2 * (1 if dithered else 1 / 3)
+    return 6 * np.sqrt(variance / count)
+
+
+def trig_map_error(components, start, start_error, iterations):
+    """Per-particle bound on how far a float32 GPU run of a trigonometric map ends from float64.
+
+    The map's each output component is a sum of terms ``outer * f(k * p[axis])``, f sin or cos,
+    given as ``components = [[(outer, k, axis, "sin" | "cos"), ...], ...]``. One term's float32
+    evaluation errs by at most: the input's error carried by the local derivative at the float64
+    point (|outer k f'| e, plus the second-order (k e)^2 / 2), the argument's two roundings (k to
+    float32 and the product), the trig error TRIG_ERROR, and for an outer factor other than +-1 its
+    own two roundings; the sum rounds once more. Errors are carried in the max norm over axes.
+    ``start_error`` is each particle's start error (scalar or array). Returns the float64 end
+    points (count, 2) and each particle's error bound (count,)."""
+    p = np.asarray(start, dtype=np.float64)
+    error = np.broadcast_to(np.asarray(start_error, float), (len(p),)).copy()
+    for _ in range(iterations):
+        values, errors = [], []
+        for terms in components:
+            value = np.zeros(len(p))
+            term_errors = np.zeros(len(p))
+            for outer, k, axis, kind in terms:
+                z = k * p[:, axis]
+                f, slope = (np.sin(z), np.cos(z)) if kind == "sin" else (np.cos(z), -np.sin(z))
+                argument_error = abs(k) * error + 2 * U * np.abs(z)
+                term_errors += abs(outer) * (np.abs(slope) * argument_error
+                                             + argument_error ** 2 / 2 + TRIG_ERROR)
+                if abs(outer) != 1:
+                    term_errors += 2 * U * np.abs(outer * f)
+                value += outer * f
+            values.append(value)
+            errors.append(term_errors + U * np.abs(value))
+        p = np.stack(values, axis=-1)
+        error = np.maximum.reduce(errors)
+    return p, error

@@ -81,3 +81,15 @@ def trig_map_error(components, start, start_error, iterations):
         p = np.stack(values, axis=-1)
         error = np.maximum.reduce(errors)
     return p, error
+
+
+def float_rounding(magnitude, fmt="rgba32f", whole_ulp=False):
+    """Largest error of rounding a value of magnitude at most ``magnitude`` to the floats of
+    ``fmt`` (float32: rgba32f, float16: rgba16f): half their spacing in its binade, U or U16 times
+    2^floor(log2 m) (at least half the subnormal spacing), or the whole spacing where the
+    conversion may round towards zero (GL leaves the conversion of a value written into a
+    half-float target to the driver; llvmpipe's truncates). One float32 operation's rounding is
+    ``float_rounding(|result|)``."""
+    unit, smallest = {"rgba32f": (U, 2.0 ** -126), "rgba16f": (U16, 2.0 ** -14)}[fmt]
+    binade = 2.0 ** np.floor(np.log2(np.maximum(np.abs(magnitude), smallest)))
+    return (2 if whole_ulp else 1) * unit * binade

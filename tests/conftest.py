@@ -6,6 +6,10 @@ the ``ctx`` or ``gl`` fixture is marked here; a module that opens contexts itsel
 ``browser`` needs Chromium, ``slow`` takes more than a few seconds. ``pytest -m "not gl and not
 browser"`` is the fast tier: plans, bindings, the executor on a recording device, numpy twins and
 the command line's refusals, with no GL library loaded. The README's test command runs them all.
+
+A tool a test needs and lacks (glslang, astcenc, Chromium...) is a skip, or under CI a failure
+(``missing``). Tests write under their tmp_path only: a session that made, changed or removed a
+file of the repository fails, naming them (``pytest_sessionfinish``).
 """
 
 import os
@@ -25,6 +29,62 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if {"ctx", "gl"} & set(getattr(item, "fixturenames", ())):
             item.add_marker(pytest.mark.gl)
+
+
+# Tests write under their tmp_path only. The repository's files are listed when the session starts
+# and again when it ends; a file made, changed or removed in between fails the session, named.
+# Left out: environments, git, caches and build leftovers (the tools' own, not the tests').
+REPOSITORY = Path(__file__).resolve().parent.parent
+NOT_WATCHED = {".git", ".venv", "venv", "__pycache__", ".pytest_cache", ".hypothesis", "build",
+               "dist"}
+REPOSITORY_BEFORE = pytest.StashKey[dict]()
+REPOSITORY_CHANGED = pytest.StashKey[list]()
+
+
+def repository_files():
+    """{path relative to the repository: (size, modification time in ns)} of every file the
+    guard watches."""
+    files = {}
+    for folder, folders, names in os.walk(REPOSITORY):
+        folders[:] = [f for f in folders if f not in NOT_WATCHED and not f.endswith(".egg-info")]
+        for name in names:
+            path = os.path.join(folder, name)
+            try:
+                stat = os.lstat(path)
+            except OSError:  # gone between the listing and the look
+                continue
+            files[os.path.relpath(path, REPOSITORY)] = (stat.st_size, stat.st_mtime_ns)
+    return files
+
+
+def pytest_sessionstart(session):
+    session.config.stash[REPOSITORY_BEFORE] = repository_files()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    before = session.config.stash.get(REPOSITORY_BEFORE, None)
+    if before is None:
+        return
+    after = repository_files()
+    changed = sorted([f"made: {p}" for p in after.keys() - before.keys()]
+                     + [f"changed: {p}" for p in after.keys() & before.keys()
+                        if after[p] != before[p]]
+                     + [f"removed: {p}" for p in before.keys() - after.keys()])
+    session.config.stash[REPOSITORY_CHANGED] = changed
+    if changed and session.exitstatus == 0:
+        session.exitstatus = 1
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    changed = config.stash.get(REPOSITORY_CHANGED, [])
+    if changed:
+        terminalreporter.section("files written into the repository", red=True)
+        terminalreporter.write_line(
+            f"The session made, changed or removed {len(changed)} file(s) under {REPOSITORY} "
+            "(tests write under their tmp_path only; a file edited by hand while the tests ran "
+            "shows here too):", red=True)
+        for line in changed:
+            terminalreporter.write_line(f"  {line}", red=True)
 
 
 @pytest.fixture
@@ -85,14 +145,21 @@ def run_fullscreen(ctx, frag, source, out_fmt="rgba8", uniforms=None):
         ctx.free(vao, fbo, target)
 
 
+def missing(what):
+    """A tool the test needs is missing: ``what`` says which, and how to get it. Under CI (the
+    environment variable CI set, as ``.ci/run`` sets it) a failure, so that no test of CI is
+    skipped unseen; elsewhere a skip."""
+    if os.environ.get("CI"):
+        pytest.fail(f"{what}; CI must provide it (CI is set: a missing tool fails the test)",
+                    pytrace=False)
+    pytest.skip(what, allow_module_level=True)
+
+
 def glslang():
     """Path of glslangValidator; in CI its absence is a failure, elsewhere a skip."""
     tool = shutil.which("glslangValidator")
     if tool is None:
-        if os.environ.get("CI"):
-            pytest.fail("glslangValidator is not installed (Debian package glslang-tools); CI must "
-                        "install it")
-        pytest.skip("glslangValidator not installed (apt-get install glslang-tools)")
+        missing("glslangValidator is not installed (Debian package glslang-tools)")
     return tool
 
 

@@ -83,13 +83,14 @@ def test_one_sample_is_the_plain_image(gl):
         assert np.array_equal(a.image(), b.image())
 
 
-def test_bad_accumulation_is_one_line(gl, capsys):
+def test_bad_accumulation_is_one_line(gl, capsys, tmp_path):
     from es2particles.cli import main
 
     for value in ("0", "-3"):
-        code = main(["run", "dejong", "--accumulate", value, "--out", "x.png"])
+        code = main(["run", "dejong", "--accumulate", value, "--out", str(tmp_path / "x.png")])
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and "accumulate" in err, err
+    assert list(tmp_path.iterdir()) == []
     with pytest.raises(ParameterError, match="--accumulate: scene 'smoke' does not use this "
                                              "setting .it draws 3D sprites"):
         Pipeline(gl, Smoke(), 64, (16, 16), accumulate=2)

@@ -4,7 +4,7 @@ run of the same plan: packed state bytes, density, picture. Chromium is Debian's
 driven by playwright's Python package; in CI its absence is a failure, elsewhere a skip."""
 
 import base64
-import os
+import re
 import shutil
 import subprocess
 import sys
@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from conftest import glslang
+from conftest import glslang, missing
 from es2particles.export.page import page_plan, write_page
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.camera import Camera
@@ -29,17 +29,15 @@ pytestmark = pytest.mark.browser
 
 def chromium():
     tool = shutil.which("chromium") or shutil.which("chromium-browser")
-    missing = []
+    lacking = []
     if tool is None:
-        missing.append("Chromium (Debian package chromium)")
+        lacking.append("Chromium (Debian package chromium)")
     try:
         import playwright.sync_api  # noqa: F401
     except ImportError:
-        missing.append("playwright (the test extra)")
-    if missing:
-        if os.environ.get("CI"):
-            pytest.fail(f"{' and '.join(missing)} not installed; CI must install them")
-        pytest.skip(f"{' and '.join(missing)} not installed")
+        lacking.append("playwright (the test extra)")
+    if lacking:
+        missing(f"{' and '.join(lacking)} not installed")
     return tool
 
 
@@ -122,7 +120,8 @@ def web_run(browser, tmp_path, scene, steps, path=None, **settings):
         page.page.screenshot(path=str(shot))
         return {"texels": page.state("position"), "density": counts,
                 "flagged": density["flagged"], "image": page.image(settings["size"]),
-                "facts": facts, "outside": page.outside(), "path": page.call("path")}
+                "facts": facts, "outside": page.outside(), "path": page.call("path"),
+                "shot": shot}
     finally:
         page.close()
 
@@ -149,7 +148,7 @@ def test_reseeded_dejong_page_matches_egl_byte_for_byte(gl, browser, tmp_path, p
     diff = np.abs(web["image"].astype(int) - image.astype(int))
     print(f"{path}: {n} texels identical, density exact on {exact:.2%} of the pixels (r {r:.6f}); "
           f"picture mean difference {diff.mean():.3f} codes, largest {diff.max()}")
-    assert diff.max() <= 1, (diff.mean(), diff.max())
+    assert diff.max() <= 1, (diff.mean(), diff.max(), f"the page's screenshot: {web['shot']}")
 
 
 @pytest.mark.parametrize("path", ["float", "bytes"])
@@ -251,18 +250,18 @@ def cli(*args, cwd):
                           text=True, cwd=cwd)
 
 
-@pytest.mark.parametrize("args, message", [
-    (["export", "fountain", "--gradient", "ice", "--out", "p.html"],
+@pytest.mark.parametrize("args, out, message", [
+    (["export", "fountain", "--gradient", "ice"], "p.html",
      "--gradient: scene 'fountain' does not use this setting (it draws 3D sprites"),
-    (["export", "smoke", "--opacity", "2", "--out", "p.html"], "--opacity must be in [0, 1], got 2"),
-    (["export", "dejong", "--format", "rgba16f", "--out", "p.html"], "--format rgba16f"),
-    (["export", "dejong", "--accumulate", "4", "--out", "p.html"], "--accumulate"),
-    (["export", "dejong", "--out", "p.htm"], "--out must end in .html"),
-    (["export", "dejong", "--animate-to", "1,2,3,4", "--out", "p.html"], "--animate-to"),
-    (["export", "dejong", "--size", "5000x5000", "--out", "p.html"], "size width"),
+    (["export", "smoke", "--opacity", "2"], "p.html", "--opacity must be in [0, 1], got 2"),
+    (["export", "dejong", "--format", "rgba16f"], "p.html", "--format rgba16f"),
+    (["export", "dejong", "--accumulate", "4"], "p.html", "--accumulate"),
+    (["export", "dejong"], "p.htm", "--out must end in .html"),
+    (["export", "dejong", "--animate-to", "1,2,3,4"], "p.html", "--animate-to"),
+    (["export", "dejong", "--size", "5000x5000"], "p.html", "size width"),
 ])
-def test_export_refuses_in_one_line(tmp_path, args, message):
-    result = cli(*args, cwd=tmp_path)
+def test_export_refuses_in_one_line(tmp_path, args, out, message):
+    result = cli(*args, "--out", str(tmp_path / out), cwd=tmp_path)
     assert result.returncode == 2 and message in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
@@ -270,7 +269,7 @@ def test_export_refuses_in_one_line(tmp_path, args, message):
 
 def test_export_writes_one_self_contained_page(tmp_path):
     result = cli("export", "dejong", "--particles", "4096", "--size", "64x64", "--out",
-                 "page.html", cwd=tmp_path)
+                 str(tmp_path / "page.html"), cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     text = (tmp_path / "page.html").read_text()
     assert text.count("<script") == 2 and "src=" not in text and "http" not in text.lower()
@@ -335,16 +334,25 @@ def web_page(browser, tmp_path, scene, state, steps):
     return page
 
 
-def compare_images(egl, web, what, scale=1.0):
+def compare_images(egl, web, what, scale=1.0, folder=None):
     """The page's picture against EGL's. Sprites drawn into a buffer of ``scale`` of the
     resolution put each of its pixels on 1 / scale^2 of the picture's: a pixel the two
-    rasterisers place otherwise there differs over as many, so the bounds grow by that."""
+    rasterisers place otherwise there differs over as many, so the bounds grow by that. On a
+    failure the two pictures and their difference are left in ``folder`` (the test's tmp_path,
+    which pytest keeps for the last runs), named in the message."""
     diff = np.abs(egl.astype(int) - web.astype(int))
     off = float(np.mean(diff.max(axis=2) > 8))
     print(f"{what}: mean difference {diff.mean():.3f} codes, largest {diff.max()}, "
           f"{off:.3%} of pixels more than 8 codes off")
-    assert diff.mean() <= RENDER_MEAN / scale ** 2 and off <= RENDER_OFF / scale ** 2, \
-        (diff.mean(), off)
+    good = diff.mean() <= RENDER_MEAN / scale ** 2 and off <= RENDER_OFF / scale ** 2
+    if not good and folder is not None:
+        from PIL import Image
+
+        shot = folder / f"{re.sub('[^a-z0-9]+', '-', what.lower()).strip('-')}-egl-page-diff.png"
+        Image.fromarray(np.concatenate([egl, web, np.clip(diff, 0, 255).astype(np.uint8)],
+                                       axis=1)).save(shot)
+        what = f"{what} (EGL, the page and their difference: {shot})"
+    assert good, (what, diff.mean(), off)
     return diff
 
 
@@ -362,7 +370,7 @@ def test_3d_page_draws_and_steps_as_egl_does(gl, browser, tmp_path, scene):
         page.page.screenshot(path=str(tmp_path / f"{scene.name}.png"))
         assert web.std() > 10, "the page drew a flat picture"
         compare_images(image, web, f"{scene.name}, one state drawn",
-                       getattr(scene.params, "buffer_scale", 1.0))
+                       getattr(scene.params, "buffer_scale", 1.0), folder=tmp_path)
         page.call("step(1)")
         for name, parts in after.items():
             for part, egl in enumerate(parts):
@@ -419,13 +427,13 @@ def test_fountain_page_orbits_and_zooms_with_the_mouse_as_the_python_camera_does
         turned = page.image(SIZE_3D)
         assert np.abs(turned.astype(int) - before.astype(int)).mean() > 5, "the drag moved nothing"
         _, want, _ = egl_state(gl, scene, steps, camera(120, 30))
-        compare_images(want, turned, "after a drag of (120, 30) pixels")
+        compare_images(want, turned, "after a drag of (120, 30) pixels", folder=tmp_path)
         page.page.mouse.move(x, y)
         page.page.mouse.wheel(0, 300)
         page.call("frame()")
         zoomed = page.image(SIZE_3D)
         _, want, _ = egl_state(gl, scene, steps, camera(120, 30, np.exp(0.3)))
-        compare_images(want, zoomed, "and a wheel of 300")
+        compare_images(want, zoomed, "and a wheel of 300", folder=tmp_path)
     finally:
         page.close()
 
@@ -449,7 +457,7 @@ def test_page_draws_an_orthographic_camera_and_orbits_about_its_up_axis(gl, brow
     state, still, _ = egl_state(gl, scene, steps)
     page = web_page(browser, tmp_path, scene, state, steps)
     try:
-        compare_images(still, page.image(SIZE_3D), "orthographic, up +x")
+        compare_images(still, page.image(SIZE_3D), "orthographic, up +x", folder=tmp_path)
         drag(page, 80, 20)
         turned = page.image(SIZE_3D)
     finally:
@@ -465,7 +473,7 @@ def test_page_draws_an_orthographic_camera_and_orbits_about_its_up_axis(gl, brow
     want_camera = Camera(eye=tuple(eye), target=base.target, up=base.up, ortho=base.ortho)
     _, want, _ = egl_state(gl, scene, steps, want_camera)
     assert np.abs(turned.astype(int) - still.astype(int)).mean() > 3, "the drag moved nothing"
-    compare_images(want, turned, "after a drag of (80, 20) pixels about +x")
+    compare_images(want, turned, "after a drag of (80, 20) pixels about +x", folder=tmp_path)
 
 
 def test_page_sizes_sprites_by_the_jogl_law_as_the_camera_moves(gl, browser, tmp_path):
@@ -477,7 +485,8 @@ def test_page_sizes_sprites_by_the_jogl_law_as_the_camera_moves(gl, browser, tmp
     state, still, _ = egl_state(gl, scene, steps)
     page = web_page(browser, tmp_path, scene, state, steps)
     try:
-        compare_images(still, page.image(SIZE_3D), "jogl law, the scene's camera")
+        compare_images(still, page.image(SIZE_3D), "jogl law, the scene's camera",
+                       folder=tmp_path)
         box = page.page.locator("#view").bounding_box()
         page.page.mouse.move(box["x"] + 100, box["y"] + 100)
         page.page.mouse.wheel(0, 400)
@@ -488,7 +497,7 @@ def test_page_sizes_sprites_by_the_jogl_law_as_the_camera_moves(gl, browser, tmp
     eye = np.add(base.target, np.exp(0.4) * np.subtract(base.eye, base.target))
     _, want, _ = egl_state(gl, scene, steps, Camera(eye=tuple(eye), target=base.target,
                                                     fov=base.fov))
-    compare_images(want, zoomed, "jogl law, a wheel of 400")
+    compare_images(want, zoomed, "jogl law, a wheel of 400", folder=tmp_path)
 
 
 def test_3d_page_runs_on_its_own_as_a_user_sees_it(browser, tmp_path, gl):
@@ -568,6 +577,6 @@ def test_smoke_page_sphere_follows_a_mouse_drag_as_the_window_does(gl, browser, 
         model[:3, 3] += want - np.array(scene.params.sphere[:3])
         _, moved, _ = egl_state(gl, scene, steps, camera, model)
         web = page.image(SIZE_3D)
-        compare_images(moved, web, "the sphere dragged on the page")
+        compare_images(moved, web, "the sphere dragged on the page", folder=tmp_path)
     finally:
         page.close()

@@ -36,19 +36,21 @@ def test_every_option_with_a_default_states_it(name, parser):
     assert "``" not in (parser.description or "")
 
 
-def test_a_run_imports_only_its_own_scene():
+def test_a_run_imports_only_its_own_scene(tmp_path):
     """`run dejong` builds its parser without importing the other scenes or reading the package
     metadata; a name that is not built in still finds every installed scene."""
     import subprocess
     import sys
 
     code = ("import sys; from es2particles.cli import build_parser; "
-            "build_parser(['run', 'dejong']).parse_args(['run', 'dejong', '--out', 'x.png']); "
+            "build_parser(['run', 'dejong']).parse_args(['run', 'dejong', '--out', sys.argv[1]]); "
             "print(sorted(m for m in sys.modules if m.startswith('es2particles.scenes.')))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    out = subprocess.run([sys.executable, "-c", code, str(tmp_path / "x.png")],
+                         capture_output=True, text=True, check=True, cwd=tmp_path)
     assert out.stdout.split() == ["['es2particles.scenes.attractor',", "'es2particles.scenes.base',",
                                   "'es2particles.scenes.dejong']"]
     from es2particles.errors import ParameterError
 
     with pytest.raises(ParameterError, match="invalid choice: 'dejongg' .*'smoke'"):
-        build_parser(["run", "dejongg"]).parse_args(["run", "dejongg", "--out", "x.png"])
+        build_parser(["run", "dejongg"]).parse_args(["run", "dejongg", "--out",
+                                                     str(tmp_path / "x.png")])

@@ -1,6 +1,7 @@
 """Rendered images: size, not blank, not saturated; what the gradient map and bloom do."""
 
 import numpy as np
+import pytest
 
 from masks import dilate
 from es2particles.frame.pipeline import Pipeline
@@ -16,13 +17,14 @@ def render(ctx, gradient="inferno", bloom=None, particles=2 ** 18, size=(256, 25
 
 def save_diff(folder, name, a, b):
     """On failure, leave the two images and their difference in the test's temporary
-    ``folder`` for a person (pytest keeps the last runs' folders; the path is printed)."""
+    ``folder`` for a person (pytest keeps the last runs' folders); returns their path, for the
+    failure's message."""
     from PIL import Image
 
     diff = np.abs(a.astype(int) - b.astype(int)).clip(0, 255).astype(np.uint8)
     path = folder / f"{name}.png"
     Image.fromarray(np.concatenate([a, b, diff], axis=1)).save(path)
-    print(f"the two images and their difference: {path}")
+    return path
 
 
 def test_image_is_the_right_size_not_blank_not_saturated(gl):
@@ -52,8 +54,9 @@ def test_bloom_spreads_light_around_bright_regions_and_zero_bloom_changes_nothin
     plain = render(gl, bloom=None)
     zero = render(gl, bloom=Bloom(intensity=0.0))
     if not np.array_equal(plain, zero):
-        save_diff(tmp_path, "bloom_zero", plain, zero)
-    assert np.array_equal(plain, zero), "bloom of intensity 0 must equal no bloom"
+        path = save_diff(tmp_path, "bloom_zero", plain, zero)
+        pytest.fail(f"bloom of intensity 0 must equal no bloom (the two images and their "
+                    f"difference: {path})")
     bloomed = render(gl, bloom=Bloom(threshold=0.3, radius=3, intensity=2.0))
     assert np.all(bloomed.astype(int) >= plain.astype(int) - 1), "bloom only adds light"
     gain = bloomed.astype(int).sum() - plain.astype(int).sum()

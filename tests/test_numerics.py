@@ -17,13 +17,15 @@ def test_numerics_case(gl, name):
     assert case.passed, f"{case.name}: measured {case.measured}, bound {case.bound}"
 
 
-def test_parameters_that_would_void_no_tunnelling_are_refused(capsys):
+def test_parameters_that_would_void_no_tunnelling_are_refused(capsys, tmp_path):
     from es2particles.cli import main
 
-    code = main(["run", "collision", "--dt", "1", "--field-resolution", "4096", "--out", "x.png"])
+    code = main(["run", "collision", "--dt", "1", "--field-resolution", "4096", "--out",
+                 str(tmp_path / "x.png")])
     message = capsys.readouterr().err
     assert code == 2 and "sub-steps of half a cell to rule out tunnelling; at most 4096" in message
     assert message.count("\n") == 1 and "Traceback" not in message
+    assert list(tmp_path.iterdir()) == []
 
 
 NUMERIC_OPTIONS = {
@@ -52,11 +54,12 @@ def test_non_finite_parameters_are_refused_in_one_line(scene, option, value, cap
 
 
 @pytest.mark.parametrize("value", ["1.5", "-0.1"])
-def test_sliding_out_of_range_is_refused_not_clamped(value, capsys):
+def test_sliding_out_of_range_is_refused_not_clamped(value, capsys, tmp_path):
     from es2particles.cli import main
 
-    assert main(["run", "collision", "--sliding", value, "--out", "x.png"]) == 2
+    assert main(["run", "collision", "--sliding", value, "--out", str(tmp_path / "x.png")]) == 2
     assert "sliding must be in [0, 1]" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_a_range_that_overflows_float32_is_refused():

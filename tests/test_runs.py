@@ -85,11 +85,11 @@ def test_an_option_the_scene_does_not_take_is_one_line_naming_it(tmp_path, capsy
     assert list(tmp_path.iterdir()) == []
 
 
-def test_smoke_takes_its_lifetime_as_its_help_writes_it(capsys):
+def test_smoke_takes_its_lifetime_as_its_help_writes_it(capsys, tmp_path):
     text = " ".join(help_of(capsys, "run", "smoke").split())
     assert "--lifetime MIN,MAX lifetime range; s; in [0.0001, inf]; default 4,6" in text
     args = build_parser(["run", "smoke"]).parse_args(["run", "smoke", "--lifetime", "4,6",
-                                                      "--out", "x.png"])
+                                                      "--out", str(tmp_path / "x.png")])
     from es2particles.cli import run_of
 
     assert run_of(args).make_scene().params.lifetime == (4.0, 6.0)

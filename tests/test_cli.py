@@ -1,11 +1,17 @@
 """The command line: images, animations, saved state, plans, and clear errors with no partial file."""
 
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
 
+from conftest import missing
 from es2particles.cli import main
 
 SMALL = ["--particles", "4096", "--size", "64x64"]
@@ -81,18 +87,63 @@ def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
     assert "is a file, not a folder" in capsys.readouterr().err
     assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.jpg")]) == 2
     assert "--out must end in .png" in capsys.readouterr().err
-    locked = tmp_path / "locked"
-    locked.mkdir()
-    locked.chmod(0o500)
-    try:
-        import os
 
-        if os.access(locked, os.W_OK):  # root ignores permissions: nothing to test here
-            pytest.skip("running as root: a read-only folder is still writable")
-        assert main(["run", "dejong", *SMALL, "--out", str(locked / "x.png")]) == 2
-        assert "not writable" in capsys.readouterr().err
-    finally:
-        locked.chmod(0o700)
+
+def as_nobody():
+    """The command prefix that runs a command as user nobody (util-linux's setpriv, else its
+    runuser); a failure under CI, else a skip, when neither is installed."""
+    import pwd
+
+    nobody = pwd.getpwnam("nobody")
+    if shutil.which("setpriv"):
+        return [shutil.which("setpriv"), f"--reuid={nobody.pw_uid}", f"--regid={nobody.pw_gid}",
+                "--clear-groups"]
+    if shutil.which("runuser"):
+        return [shutil.which("runuser"), "-u", "nobody", "--"]
+    missing("setpriv or runuser (util-linux) is not installed: run as root, the read-only folder "
+            "test needs one to run the command as user nobody")
+
+
+def test_a_folder_the_user_cannot_write_in_is_refused_in_one_line(tmp_path, capsys):
+    """Refused before any GL work: one line naming the folder, exit status 2, nothing written.
+    Root may write in any folder, so run as root (as CI is) the command runs as user nobody, in
+    a folder of /tmp nobody can reach (tmp_path's parents are root's alone)."""
+    if os.geteuid() != 0:
+        locked = tmp_path / "locked"
+        locked.mkdir()
+        locked.chmod(0o500)
+        try:
+            assert os.access(locked, os.W_OK) is False, "a read-only folder is writable here"
+            code = main(["run", "dejong", *SMALL, "--out", str(locked / "x.png")])
+            err = capsys.readouterr().err
+            written = list(locked.iterdir())
+        finally:
+            locked.chmod(0o700)
+    else:
+        prefix = as_nobody()
+        folder = Path(tempfile.mkdtemp(prefix="es2particles-test-"))
+        try:
+            folder.chmod(0o755)
+            locked = folder / "locked"
+            locked.mkdir(mode=0o755)
+            locked.chmod(0o555)
+            # The interpreter may lie in a folder only root may enter (a pyenv under /root).
+            probe = subprocess.run([*prefix, sys.executable, "-c", "import es2particles"],
+                                   cwd=folder, capture_output=True, text=True, timeout=120)
+            if probe.returncode != 0:
+                missing(f"user nobody cannot run {sys.executable} and import es2particles "
+                        f"({(probe.stderr.strip().splitlines() or ['no message'])[-1]})")
+            result = subprocess.run([*prefix, sys.executable, "-m", "es2particles", "run",
+                                     "dejong", *SMALL, "--out", str(locked / "x.png")],
+                                    cwd=folder, capture_output=True, text=True, timeout=120)
+            code, err = result.returncode, result.stderr
+            written = list(locked.iterdir()) + [p for p in folder.iterdir() if p != locked]
+        finally:
+            shutil.rmtree(folder)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and str(locked) in lines[0] and "Traceback" not in err, err
+    assert written == []
 
 
 def test_a_failed_write_leaves_no_partial_file(tmp_path, monkeypatch):
@@ -158,9 +209,6 @@ def test_collision_bad_input(tmp_path, capsys, arguments, message):
 def test_the_program_exits_with_main_s_status_and_says_everything(tmp_path):
     """`python -m es2particles` leaves without the interpreter's teardown: its exit status, its
     last line and its file must still all be there, through pipes."""
-    import subprocess
-    import sys
-
     out = tmp_path / "a.png"
     ran = subprocess.run([sys.executable, "-m", "es2particles", "run", "dejong", *SMALL,
                           "--out", str(out)], capture_output=True, text=True)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from conftest import missing
 from es2particles.cluster import tasks as cluster
 from es2particles.cluster import shares
 from es2particles.cli import build_parser, main, run_of
@@ -18,7 +19,10 @@ from es2particles.scenes.dejong import DeJong
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
-distributed = pytest.importorskip("distributed")
+try:
+    import distributed
+except ImportError:
+    missing("dask's distributed is not installed (the test extra: sh setup.sh test)")
 
 SMALL = ["--size", "64x64"]
 ANIMATION = ["run", "dejong", "--reseed", "--particles", "4096", *SMALL, "--frames", "5",
@@ -100,11 +104,11 @@ def test_kept_frames_are_skipped_and_the_folder_must_match(scheduler, tmp_path, 
     assert not out.exists()
 
 
-def test_shares_count_what_numpy_bins_from_the_float64_twin(gl):
+def test_shares_count_what_numpy_bins_from_the_float64_twin(gl, tmp_path):
     """Share 1 of a reseeded still draws the grid shifted by the R2 sequence's sample 1 (times
     --accumulate): its counts against numpy binning of the twin's positions of that grid."""
     argv = ["run", "dejong", "--reseed", "--particles", str(2 * 64 * 64), "--size", "128x128",
-            "--out", "x.png"]
+            "--out", str(tmp_path / "x.png")]
     run = run_of(build_parser(argv).parse_args(argv))
     counts = shares.share_counts(gl, run, share=1, count=64 * 64)
     scene = DeJong(reseed=True)
@@ -118,9 +122,9 @@ def test_shares_count_what_numpy_bins_from_the_float64_twin(gl):
     assert np.abs(counts - expected).sum() <= 0.02 * 64 * 64  # points on a pixel's edge may move
 
 
-def test_share_sizes_reach_2_to_the_34_and_say_their_limits():
+def test_share_sizes_reach_2_to_the_34_and_say_their_limits(tmp_path):
     def sizes(*extra):
-        argv = ["run", "dejong", *extra, "--out", "x.png"]
+        argv = ["run", "dejong", *extra, "--out", str(tmp_path / "x.png")]
         args = build_parser(argv).parse_args(argv)
         return shares.share_sizes(run_of(args), save_state=args.save_state is not None)
 
@@ -131,16 +135,18 @@ def test_share_sizes_reach_2_to_the_34_and_say_their_limits():
     with pytest.raises(Exception, match=r"particles must be in \[1, 68719476736\]"):
         sizes("--particles", str(2 ** 36 + 1))
     with pytest.raises(Exception, match="--save-state writes one pipeline's state"):
-        sizes("--particles", str(2 ** 23), "--save-state", "s.npz")
+        sizes("--particles", str(2 ** 23), "--save-state", str(tmp_path / "s.npz"))
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("extra, message", [
     (["--workers", "0"], "workers must be in [1, 1024], got 0"),
     (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "not both"),
-    (["--workers", "2", "--save-state", "s.npz"], "--save-state writes one process's state"),
+    (["--workers", "2", "--save-state", "{tmp}/s.npz"], "--save-state writes one process's state"),
 ])
 def test_cluster_options_are_checked_before_any_work(tmp_path, capsys, extra, message):
     out = tmp_path / "x.png"
+    extra = [a.format(tmp=tmp_path) for a in extra]
     assert main(["run", "dejong", *SMALL, *extra, "--out", str(out)]) == 2
     assert message in capsys.readouterr().err
-    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []

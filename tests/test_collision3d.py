@@ -361,7 +361,9 @@ def test_memory_rows_count_blocks_and_padding():
 def test_compressed_field_collides_within_its_measured_error(gl):
     reason = astc.unavailable(gl)
     if reason:
-        pytest.skip(reason)
+        from conftest import missing
+
+        missing(reason)  # under CI a failure
     base = Collision3D()
     still = dataclasses.replace(base.params, jitter=0.0)
     rows = collision_errors(gl, lambda fmt: Collision3D(still.changed(field_format=fmt),

@@ -5,6 +5,7 @@ what a stage is given and what its shader uses. Each error names the stage, the 
 import numpy as np
 import pytest
 
+from bounds import U, rounding_error
 from conftest import shader
 from es2particles import GraphError, ParameterError, PassGraph, ShaderError, Simulation
 from es2particles.gl.bindings import pass_interface
@@ -262,12 +263,22 @@ uniform vec2 u_a,
              u_b;
 #define OUT write_position
 void main() { OUT(read_position(v_uv) * u_gain + u_bias + u_a + u_b); }""", reads=["position"])
-    # user_pass's graph declares no uniforms: this shader declares its own four
+    # user_pass's graph declares no uniforms: this shader declares its own four, each given a
+    # value of its own so that the step's result shows every one was set and used.
+    values = {"u_gain": 0.5, "u_bias": 0.125, "u_a": (0.25, -0.5), "u_b": (-0.0625, 0.1875)}
     with Simulation(gl, g, 16, outputs=["position"]) as sim:
         pass_command = command(sim)
-        for name in ("u_gain", "u_bias", "u_a", "u_b"):
-            pass_command.set(name, 1.0 if name in ("u_gain", "u_bias") else (0.0, 0.0))
+        for name, value in values.items():
+            pass_command.set(name, value)
+        sim.upload("position", np.random.default_rng(3).uniform(-0.5, 0.5, (16, 2)))
+        start = sim.download("position")
         sim.step()
+        got = sim.download("position")
+    want = (start * values["u_gain"] + values["u_bias"] + np.add(values["u_a"], values["u_b"]))
+    # One write of a value of [-1, 1] in RGBA8, and float32's few roundings of the sum.
+    bound = rounding_error("rgba8", -1, 1) + 4 * U
+    error = np.abs(got - want).max()
+    assert error <= bound, f"the user pass wrote {error:.3g} off its inputs (allowed {bound:.3g})"
 
 
 def test_clashing_generated_names_are_an_error_naming_both():

@@ -9,7 +9,9 @@ import subprocess
 import sys
 import zipfile
 
+import numpy as np
 import pytest
+from PIL import Image
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
@@ -72,6 +74,33 @@ def build_wheel(folder):
     return wheel
 
 
+def check_spiral_picture(path, steps):
+    """The picture the plug-in scene draws: its particles start uniform over the view [-1, 1]^2
+    and each step turns them by u_turn = 0.05 radians and pulls them in by 0.99, so after
+    ``steps`` they fill that square turned by 0.05 steps and shrunk by 0.99^steps (float64 here).
+    16 particles a pixel on average: every pixel well inside is lit, every pixel well outside
+    is the background (the picture's y up: the square turned the other way, or not pulled in,
+    lights pixels of the outside)."""
+    with Image.open(path) as image:
+        assert image.size == (64, 64), image.size
+        grey = np.asarray(image.convert("RGB")).max(axis=2)
+    h, w = grey.shape
+    rows, columns = np.mgrid[0:h, 0:w]
+    x, y = (columns + 0.5) / w * 2 - 1, 1 - (rows + 0.5) / h * 2  # pixel centres in the view
+    turn, scale = 0.05 * steps, 0.99 ** steps
+    # Each pixel centre carried back to the start: inside the square where |u|, |v| <= 1.
+    u = (np.cos(turn) * x + np.sin(turn) * y) / scale
+    v = (-np.sin(turn) * x + np.cos(turn) * y) / scale
+    reach = np.maximum(np.abs(u), np.abs(v))
+    margin = 1.5 * (2 / w) / scale  # a pixel and a half, carried back
+    inside, outside = reach <= 1 - margin, reach >= 1 + margin
+    assert inside.sum() > 0.6 * h * w and outside.sum() > 0.1 * h * w  # both are tested
+    print(f"inside: {inside.sum()} pixels, darkest {grey[inside].min()}; outside: "
+          f"{outside.sum()} pixels, brightest {grey[outside].max()}")
+    assert grey[inside].min() >= 40, f"{np.count_nonzero(grey[inside] < 40)} pixels inside dark"
+    assert grey[outside].max() <= 16, f"{np.count_nonzero(grey[outside] > 16)} pixels outside lit"
+
+
 def test_an_installed_plug_in_scene_is_listed_and_runs(tmp_path):
     wheel = build_wheel(tmp_path)
     target = tmp_path / "site"
@@ -87,11 +116,11 @@ def test_an_installed_plug_in_scene_is_listed_and_runs(tmp_path):
     assert listed.returncode == 0, listed.stderr
     assert "spiral" in listed.stdout and "dejong" in listed.stdout
     out = tmp_path / "spiral.png"
-    run = subprocess.run(cli + ["run", "spiral", "--particles", "4096", "--size", "64x64",
+    run = subprocess.run(cli + ["run", "spiral", "--particles", str(2 ** 16), "--size", "64x64",
                                 "--steps", "10", "--out", str(out)],
                          capture_output=True, text=True, env=env, cwd=tmp_path)
     assert run.returncode == 0, run.stderr
-    assert out.stat().st_size > 0
+    check_spiral_picture(out, steps=10)
     plan = subprocess.run(cli + ["plan", "spiral", "--particles", "4096", "--size", "64x64"],
                           capture_output=True, text=True, env=env, cwd=tmp_path)
     assert "spiral: " in plan.stdout and "tinyscene/spiral.frag writes position" in plan.stdout

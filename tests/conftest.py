@@ -155,6 +155,16 @@ def missing(what):
     pytest.skip(what, allow_module_level=True)
 
 
+def needs(module, extra):
+    """Import ``module``, which the package's ``extra`` installs; missing, as ``missing`` says."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError:
+        missing(f"{module} is not installed (pip install '.[{extra}]')")
+
+
 def glslang():
     """Path of glslangValidator; in CI its absence is a failure, elsewhere a skip."""
     tool = shutil.which("glslangValidator")

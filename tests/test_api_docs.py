@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from conftest import missing, needs
+
 ROOT = Path(__file__).resolve().parent.parent
 GL_LIBRARIES = ("libEGL", "libGL", "libgallium", "llvmpipe", "swrast")
 
@@ -44,7 +46,7 @@ def test_every_module_imports_without_opening_a_gl_context():
             "maps = open('/proc/self/maps').read()\n"
             "print(','.join(l for l in sys.argv[2].split(',') if l in maps))\n")
     if not Path("/proc/self/maps").exists():
-        pytest.skip("no /proc/self/maps to read the loaded libraries from")
+        missing("no /proc/self/maps to read the loaded libraries from (a Linux /proc)")
     result = subprocess.run([sys.executable, "-c", code, ",".join(modules()),
                              ",".join(GL_LIBRARIES)], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
@@ -53,7 +55,7 @@ def test_every_module_imports_without_opening_a_gl_context():
 
 @pytest.mark.slow
 def test_pdoc_builds_the_api_reference(tmp_path):
-    pytest.importorskip("pdoc")
+    needs("pdoc", "test")
     out = tmp_path / "api"
     result = subprocess.run(pdoc_command(out), cwd=tmp_path, capture_output=True, text=True,
                             timeout=600)

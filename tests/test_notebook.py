@@ -6,6 +6,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import needs
+
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
 NOTEBOOK = Path(__file__).resolve().parent.parent / "demos" / "notebook.ipynb"
@@ -22,9 +24,9 @@ def test_a_picture_and_an_animation_represent_themselves():
 
 
 def test_the_demo_notebook_runs_headless(tmp_path):
-    nbformat = pytest.importorskip("nbformat")
-    nbclient = pytest.importorskip("nbclient")
-    pytest.importorskip("ipykernel")
+    nbformat = needs("nbformat", "test")
+    nbclient = needs("nbclient", "test")
+    needs("ipykernel", "test")
     notebook = nbformat.read(NOTEBOOK, as_version=4)
     client = nbclient.NotebookClient(notebook, timeout=300, kernel_name="python3",
                                      resources={"metadata": {"path": str(tmp_path)}})

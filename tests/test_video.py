@@ -4,10 +4,12 @@ assembled from spilled frames; nothing is left behind by a failure."""
 import numpy as np
 import pytest
 
+from conftest import needs
+
 from es2particles.cli import main
 from es2particles.io.output import AnimationWriter
 
-imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
+imageio_ffmpeg = needs("imageio_ffmpeg", "test")
 
 
 @pytest.mark.gl

@@ -4,7 +4,6 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -89,57 +88,43 @@ def test_unwritable_or_wrong_output_paths(tmp_path, capsys):
     assert "--out must end in .png" in capsys.readouterr().err
 
 
-def as_nobody():
-    """The command prefix that runs a command as user nobody (util-linux's setpriv, else its
-    runuser); a failure under CI, else a skip, when neither is installed."""
-    import pwd
-
-    nobody = pwd.getpwnam("nobody")
-    if shutil.which("setpriv"):
-        return [shutil.which("setpriv"), f"--reuid={nobody.pw_uid}", f"--regid={nobody.pw_gid}",
-                "--clear-groups"]
-    if shutil.which("runuser"):
-        return [shutil.which("runuser"), "-u", "nobody", "--"]
-    missing("setpriv or runuser (util-linux) is not installed: run as root, the read-only folder "
-            "test needs one to run the command as user nobody")
+def without_capabilities():
+    """The command prefix that runs a command as root without its capabilities (util-linux's
+    setpriv empties the bounding set, so the command's exec gains none): file permissions then
+    bind root as its owner bits say, so a mode-555 folder is read-only to it, while every file
+    root owns (the clone, the virtual environment, wherever they lie) stays readable. A failure
+    under CI, else a skip, when setpriv is missing or may not drop them (no CAP_SETPCAP)."""
+    tool = shutil.which("setpriv")
+    if tool is None:
+        missing("setpriv (util-linux) is not installed: as root, the read-only folder test "
+                "needs it to run the command without root's capabilities")
+    prefix = [tool, "--bounding-set=-all", "--inh-caps=-all"]
+    probe = subprocess.run([*prefix, "true"], capture_output=True, text=True, timeout=60)
+    if probe.returncode != 0:
+        missing(f"setpriv may not drop root's capabilities here ({probe.stderr.strip()})")
+    return prefix
 
 
 def test_a_folder_the_user_cannot_write_in_is_refused_in_one_line(tmp_path, capsys):
     """Refused before any GL work: one line naming the folder, exit status 2, nothing written.
-    Root may write in any folder, so run as root (as CI is) the command runs as user nobody, in
-    a folder of /tmp nobody can reach (tmp_path's parents are root's alone)."""
-    if os.geteuid() != 0:
-        locked = tmp_path / "locked"
-        locked.mkdir()
-        locked.chmod(0o500)
-        try:
+    Root may write in any folder, so as root (as CI is) the command runs without root's
+    capabilities, for which a read-only folder is read-only."""
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    try:
+        if os.geteuid() != 0:
             assert os.access(locked, os.W_OK) is False, "a read-only folder is writable here"
             code = main(["run", "dejong", *SMALL, "--out", str(locked / "x.png")])
             err = capsys.readouterr().err
-            written = list(locked.iterdir())
-        finally:
-            locked.chmod(0o700)
-    else:
-        prefix = as_nobody()
-        folder = Path(tempfile.mkdtemp(prefix="es2particles-test-"))
-        try:
-            folder.chmod(0o755)
-            locked = folder / "locked"
-            locked.mkdir(mode=0o755)
-            locked.chmod(0o555)
-            # The interpreter may lie in a folder only root may enter (a pyenv under /root).
-            probe = subprocess.run([*prefix, sys.executable, "-c", "import es2particles"],
-                                   cwd=folder, capture_output=True, text=True, timeout=120)
-            if probe.returncode != 0:
-                missing(f"user nobody cannot run {sys.executable} and import es2particles "
-                        f"({(probe.stderr.strip().splitlines() or ['no message'])[-1]})")
-            result = subprocess.run([*prefix, sys.executable, "-m", "es2particles", "run",
-                                     "dejong", *SMALL, "--out", str(locked / "x.png")],
-                                    cwd=folder, capture_output=True, text=True, timeout=120)
+        else:
+            result = subprocess.run([*without_capabilities(), sys.executable, "-m", "es2particles",
+                                     "run", "dejong", *SMALL, "--out", str(locked / "x.png")],
+                                    cwd=tmp_path, capture_output=True, text=True, timeout=120)
             code, err = result.returncode, result.stderr
-            written = list(locked.iterdir()) + [p for p in folder.iterdir() if p != locked]
-        finally:
-            shutil.rmtree(folder)
+        written = list(locked.iterdir())
+    finally:
+        locked.chmod(0o700)
     assert code == 2, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and str(locked) in lines[0] and "Traceback" not in err, err

@@ -93,3 +93,20 @@ def float_rounding(magnitude, fmt="rgba32f", whole_ulp=False):
     unit, smallest = {"rgba32f": (U, 2.0 ** -126), "rgba16f": (U16, 2.0 ** -14)}[fmt]
     binade = 2.0 ** np.floor(np.log2(np.maximum(np.abs(magnitude), smallest)))
     return (2 if whole_ulp else 1) * unit * binade
+
+
+def decode_error(value, lo, hi):
+    """How far a GPU's decode of RGBA8 values can be from numpy's (state_decode computes
+    lo + u span in float32, two roundings; a driver may fuse them into one), per value of
+    ``value`` (decoded values of the range [lo, hi], per component): none where u span is exact
+    in float32 (the middle code, say: zero in a symmetric range), else the product's rounding
+    plus the two sums' roundings."""
+    lo32 = np.asarray(lo, np.float32)
+    span32 = (np.asarray(hi, float) - np.asarray(lo, float)).astype(np.float32)
+    value = np.asarray(value, float)
+    code = np.round((value - lo32) / span32 * CODES)
+    u = code.astype(np.float32) * np.float32(1 / CODES)  # unpack16's float32 product
+    product = u.astype(float) * span32  # exact in float64
+    rounded = product.astype(np.float32).astype(float)
+    return np.where(rounded == product, 0.0,
+                    np.abs(rounded - product) + 2 * float_rounding(value))

@@ -1,0 +1,319 @@
+"""The shader mutation suite: plausible bugs put into the GLSL (and, where a numpy twin mirrors the
+code, into the twin as well), each caught by the tests named for it, or the suite says so.
+
+    python -m tests.mutations              # every mutation, the table in Markdown
+    python -m tests.mutations --list       # names and areas only
+    python -m tests.mutations NAME ...     # some of them
+
+Each mutation is a list of exact text replacements. The package, its shaders and the tests are
+copied once into a temporary folder (the repository is never touched); for each mutation the
+replacements are made there (each must match exactly once, or the suite stops: a mutation that no
+longer applies is an error, not a pass), the named tests run against the copy (``python -m pytest
+-x``, or every named test where the mutation says so, with the copy first on the path), and the files are put back. A mutation is caught when
+pytest reports failed tests (exit 1); exit 0 is a survivor; anything else (a collection error,
+an interrupted run) is reported as broken. The suite exits 1 unless every mutation is caught.
+tests/test_mutations.py runs a subset in the test command; docs/mutations.md gives the full table.
+
+A bug put into a shader and its twin alike is the hard case: the GPU-against-twin comparisons
+still agree, so only tests against independent physics (tests/test_twins.py, the thin-wall and
+energy tests, the float64 references) can catch it.
+"""
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+COPIED = ("es2particles", "shaders", "tests", "pyproject.toml")
+
+
+@dataclass(frozen=True)
+class Mutation:
+    name: str
+    area: str
+    what: str
+    edits: tuple  # ((path, old, new), ...): each old must occur exactly once in its file
+    tests: tuple  # pytest arguments: files, node ids or "-k" expressions
+    every: bool = False  # run every named test (not stop at the first failure): the table counts them
+
+    @property
+    def files(self):
+        return sorted({path for path, _, _ in self.edits})
+
+
+def _both(shader, shader_edit, twin, twin_edit):
+    """The same bug in a shader and in its numpy twin."""
+    return ((shader, *shader_edit), (twin, *twin_edit))
+
+
+PACK = "shaders/glsl100/lib/pack.glsl"
+STATE = "shaders/glsl100/lib/state.glsl"
+PARTICLE = "shaders/glsl100/lib/particle.glsl"
+PARTICLE_TWIN = "es2particles/twins/particle.py"
+COLLISION3D = "shaders/glsl100/collision3d.frag"
+COLLISION3D_TWIN = "es2particles/twins/collision3d.py"
+FOUNTAIN = "shaders/glsl100/fountain.frag"
+FOUNTAIN_TWIN = "es2particles/twins/fountain.py"
+DRAG = "shaders/glsl100/lib/drag.glsl"
+DRAG_TWIN = "es2particles/twins/drag.py"
+FLOW = "shaders/glsl100/lib/flow.glsl"
+FLOW_TWIN = "es2particles/twins/flow.py"
+LIFE = "shaders/glsl100/lib/life.glsl"
+TRIG = "shaders/glsl100/lib/trig.glsl"
+ATTRACTOR = "shaders/glsl100/lib/attractor.glsl"
+MERGE = "shaders/glsl100/sort/merge.frag"
+KEY = "shaders/glsl100/sort/key.frag"
+
+MUTATIONS = (
+    # --- packing -----------------------------------------------------------------------------
+    Mutation("pack-half-code-high", "packing", "every nearest-rounded RGBA8 write half a code high",
+             ((PACK, "float code = floor(clamp_unit(x) * 65024.0 + 0.5);",
+               "float code = floor(clamp_unit(x) * 65024.0 + 1.0);"),),
+             ("tests/test_dejong.py", "tests/test_clifford.py"), every=True),
+    Mutation("unpack-high-byte-256", "packing", "the high byte read back as 256 codes, not 255",
+             ((PACK, "return (bytes.x * 255.0 + bytes.y) * (1.0 / 65024.0);",
+               "return (bytes.x * 256.0 + bytes.y) * (1.0 / 65024.0);"),),
+             ("tests/test_packing.py",)),
+    Mutation("dither-half-code-high", "packing", "every dithered write half a code high",
+             ((PACK, "float s = clamp_unit(x) * 65024.0;",
+               "float s = clamp_unit(x) * 65024.0 + 0.5;"),),
+             ("tests/test_clifford.py",)),
+    Mutation("dither-dead-zone-gone", "packing",
+             "dithered rounding without its dead zone (dithers float32's own error into a drift)",
+             ((PACK, "#define DITHER_DEAD_ZONE 0.015625", "#define DITHER_DEAD_ZONE 0.0"),),
+             ("tests/test_packing.py", "tests/test_numerics.py")),
+    Mutation("float-state-unclamped", "packing", "float formats no longer clamped to the range",
+             ((STATE, "value.x >= lo.x ? min(value.x, hi.x) : lo.x",
+               "value.x >= lo.x ? value.x : lo.x"),),
+             ("tests/test_packing.py", "tests/test_stability.py")),
+    # --- attractors --------------------------------------------------------------------------
+    Mutation("dejong-wrong-axis", "attractors", "de Jong's last cosine reads x instead of y",
+             (("shaders/glsl100/attractors/dejong.frag", "trig_cos(k.w * p.y)",
+               "trig_cos(k.w * p.x)"),),
+             ("tests/test_dejong.py",)),
+    Mutation("clifford-c-for-d", "attractors", "Clifford's first cosine weighted by d, not c",
+             (("shaders/glsl100/attractors/clifford.frag", "k.z * trig_cos(k.x * p.x)",
+               "k.w * trig_cos(k.x * p.x)"),),
+             ("tests/test_clifford.py",)),
+    Mutation("attractor-one-iteration-short", "attractors", "one map iteration fewer a step",
+             ((ATTRACTOR, "for (int i = 0; i < ITERATIONS; ++i)",
+               "for (int i = 1; i < ITERATIONS; ++i)"),),
+             ("tests/test_dejong.py",)),
+    Mutation("reseed-jitter-reversed", "attractors",
+             "accumulated samples' grid shifted the wrong way",
+             ((ATTRACTOR, "(v_uv + u_jitter / u_state_size)", "(v_uv - u_jitter / u_state_size)"),),
+             ("tests/test_accumulate.py",)),
+    Mutation("trig-pi-over-two-short", "attractors",
+             "the range reduction's pi/2 loses its last term (8 + 11 bits only)",
+             ((TRIG, "float r = ((x - n * TRIG_PIO2_1) - n * TRIG_PIO2_2) - n * TRIG_PIO2_3;",
+               "float r = (x - n * TRIG_PIO2_1) - n * TRIG_PIO2_2;"),),
+             ("tests/test_numerics.py::test_trig_is_float64_sin_and_cos_to_float32_rounding",)),
+    # --- collision 2D ------------------------------------------------------------------------
+    Mutation("substeps-two-cells", "collision 2D",
+             "sub-steps of two cells instead of half a cell, shader and twin",
+             _both(PARTICLE, ("ceil(reach / (0.5 * u_cell))", "ceil(reach / (2.0 * u_cell))"),
+                   PARTICLE_TWIN, ("np.ceil(reach / (0.5 * field.cell))",
+                                   "np.ceil(reach / (2.0 * field.cell))")),
+             ("tests/test_twins.py", "tests/test_collision.py")),
+    Mutation("entry-carry-sign", "collision 2D",
+             "the normal's distance carried with the wrong sign, shader and twin",
+             _both(PARTICLE, ("            d = dot(moved, n);", "            d = -dot(moved, n);"),
+                   PARTICLE_TWIN, ("d = np.where(back, np.sum(moved * n, axis=-1), d)",
+                                   "d = np.where(back, -np.sum(moved * n, axis=-1), d)")),
+             ("tests/test_twins.py", "tests/test_collision.py")),
+    Mutation("side-of-entry-gone", "collision 2D",
+             "no 'came through the other side' rule, shader and twin",
+             _both(PARTICLE, ("if (dot(moved, n) > 0.0 && d > -2.0 * u_cell) {", "if (false) {"),
+                   PARTICLE_TWIN, ("back = (d < 0) & (np.sum(moved * n, axis=-1) > 0) & "
+                                   "(d > -2 * field.cell)", "back = d != d")),
+             ("tests/test_twins.py", "tests/test_collision.py")),
+    Mutation("sliding-swapped", "collision 2D",
+             "sliding and its complement swapped in the bounce, shader and twin",
+             _both(PARTICLE, ("(n * u_sliding + along / along_length * (1.0 - u_sliding))",
+                              "(n * (1.0 - u_sliding) + along / along_length * u_sliding)"),
+                   PARTICLE_TWIN, ("(n * sliding + t * (1 - sliding))",
+                                   "(n * (1 - sliding) + t * sliding)")),
+             ("tests/test_twins.py", "tests/test_collision.py")),
+    Mutation("contact-energy-sign", "collision 2D",
+             "the push-out's work against the acceleration added instead of taken, shader only",
+             ((PARTICLE, "v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);",
+               "v *= sqrt(max(v2 + 2.0 * d * dot(a, n), 0.0) / v2);"),),
+             ("tests/test_collision.py",)),
+    Mutation("drag-explicit-euler", "collision 2D",
+             "drag as explicit Euler (1 - k h) instead of exp(-k h), shader and twin",
+             _both(DRAG, ("float decay = exp(-kh);", "float decay = 1.0 - kh;"),
+                   DRAG_TWIN, ("decay = np.exp(-kh)", "decay = 1 - kh")),
+             ("tests/test_twins.py", "tests/test_stability.py")),
+    # --- collision 3D ------------------------------------------------------------------------
+    Mutation("substeps3d-doubled", "collision 3D",
+             "3D sub-steps twice the bound, shader and twin",
+             _both(COLLISION3D, ("ceil(reach / u_substep)", "ceil(reach / (2.0 * u_substep))"),
+                   COLLISION3D_TWIN, ("np.ceil(reach / substep)", "np.ceil(reach / (2 * substep))")),
+             ("tests/test_twins.py", "tests/test_collision3d.py")),
+    Mutation("side-of-entry3d-gone", "collision 3D",
+             "no side-of-entry rule in 3D, shader only",
+             ((COLLISION3D, "if (dot(moved, n) > 0.0 && d > -2.0 * u_voxel && d < -0.25 * u_voxel) {",
+               "if (false) {"),),
+             ("tests/test_collision3d.py",)),
+    Mutation("surface-velocity-ignored", "collision 3D",
+             "contact with a moving object in the world frame, not the surface's, shader only",
+             ((COLLISION3D, "vec3 relative = v - surface;", "vec3 relative = v;"),
+              (COLLISION3D, "v = relative + surface;", "v = relative;")),
+             ("tests/test_collision3d.py",)),
+    # --- fountain ----------------------------------------------------------------------------
+    Mutation("floor-bounce-elastic", "fountain",
+             "the floor bounce keeps all the speed, shader and twin",
+             _both(FOUNTAIN, ("p.v.y = -p.v.y * u_bounce;", "p.v.y = -p.v.y;"),
+                   FOUNTAIN_TWIN, ("v[below, 1] *= -p.bounce", "v[below, 1] *= -1")),
+             ("tests/test_twins.py", "tests/test_fountain.py")),
+    Mutation("fountain-old-velocity", "fountain",
+             "the position moved with last step's velocity (explicit Euler), shader only",
+             ((FOUNTAIN, "        p.v = clamp(p.v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);\n"
+                         "        p.x += p.v * u_dt;",
+               "        p.x += p.v * u_dt;\n"
+               "        p.v = clamp(p.v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);"),),
+             ("tests/test_fountain.py",)),
+    # --- smoke -------------------------------------------------------------------------------
+    Mutation("curl-sign", "smoke", "one component of the curl noise's curl with its sign flipped, "
+             "shader and twin",
+             _both(FLOW, ("vec3(c.y - b.z, a.z - c.x, b.x - a.y)", "vec3(c.y - b.z, c.x - a.z, b.x - a.y)"),
+                   FLOW_TWIN, ("ga[:, 2] - gc[:, 0]", "gc[:, 0] - ga[:, 2]")),
+             ("tests/test_flow.py",)),
+    Mutation("stokes-tau-doubled", "smoke", "the air's pull on a particle at half strength, shader only",
+             (("shaders/glsl100/smoke.frag", "- read_velocity(v_uv)) / u_tau + u_gravity",
+               "- read_velocity(v_uv)) / (2.0 * u_tau) + u_gravity"),),
+             ("tests/test_smoke.py",)),
+    # --- sort --------------------------------------------------------------------------------
+    Mutation("merge-keeps-larger", "sort", "the lower slot of a comparator keeps the larger key",
+             ((MERGE, "result = order_less(other, own) ? other : own;",
+               "result = order_less(own, other) ? other : own;"),),
+             ("tests/test_sort.py",)),
+    Mutation("merge-one-comparator-short", "sort",
+             "the network's last block boundary off by one comparator",
+             ((MERGE, "block + u_k < 2.0 * u_p", "block + u_k < 2.0 * u_p - 1.0"),),
+             ("tests/test_sort.py",)),
+    Mutation("depth-key-reversed", "sort", "the depth key measured from the near side",
+             ((KEY, "float t = clamp_unit((u_depth.x - depth) * u_depth.y);",
+               "float t = clamp_unit(1.0 - (u_depth.x - depth) * u_depth.y);"),),
+             ("tests/test_sort.py",)),
+    # --- life --------------------------------------------------------------------------------
+    Mutation("life-ends-a-step-late", "life", "a particle re-emitted a step after its lifetime",
+             ((LIFE, "aged.x > life.y - half_step;", "aged.x > life.y + half_step;"),),
+             ("tests/test_collision.py", "tests/test_emitter.py")),
+    Mutation("life-born-never", "life", "the unborn never come alive (birth test reversed)",
+             ((LIFE, "bool born = life.x < -half_step && aged.x > -half_step;",
+               "bool born = life.x > -half_step && aged.x > -half_step;"),),
+             ("tests/test_collision.py", "tests/test_emitter.py")),
+)
+
+# The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
+# named bugs first, chosen to fit CI's time.
+CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", "entry-carry-sign",
+             "curl-sign", "merge-keeps-larger", "life-ends-a-step-late")
+
+
+def make_copy(folder):
+    for name in COPIED:
+        source = ROOT / name
+        if source.is_dir():
+            shutil.copytree(source, folder / name,
+                            ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "_shaders"))
+        else:
+            shutil.copy2(source, folder / name)
+
+
+def apply(folder, mutation):
+    """Make the replacements; return the original texts to put back."""
+    originals = {}
+    for path, old, new in mutation.edits:
+        target = folder / path
+        text = originals.get(path) or target.read_text()
+        originals.setdefault(path, text)
+        current = target.read_text()
+        count = current.count(old)
+        if count != 1:
+            raise SystemExit(f"mutation {mutation.name}: {old!r} occurs {count} times in {path} "
+                             f"(it must occur once): the code moved; update tests/mutations.py")
+        target.write_text(current.replace(old, new))
+    return originals
+
+
+def run(folder, mutation, timeout=900):
+    originals = apply(folder, mutation)
+    env = {**os.environ, "PYTHONPATH": str(folder), "PYTHONDONTWRITEBYTECODE": "1"}
+    env.pop("CI", None)  # a missing optional tool skips here: the mutation's own tests decide
+    started = time.monotonic()
+    try:
+        stop = () if mutation.every else ("-x",)
+        done = subprocess.run([sys.executable, "-m", "pytest", *stop, "-q", "-p", "no:cacheprovider",
+                               *mutation.tests], cwd=folder, env=env, capture_output=True,
+                              text=True, timeout=timeout)
+        code, output = done.returncode, done.stdout + done.stderr
+    except subprocess.TimeoutExpired:
+        code, output = None, f"timed out after {timeout} s"
+    finally:
+        for path, text in originals.items():
+            (folder / path).write_text(text)
+    seconds = time.monotonic() - started
+    verdict = {1: "caught", 0: "SURVIVED"}.get(code, "BROKEN")
+    failed = [line.split(" ")[1] for line in output.splitlines() if line.startswith("FAILED ")]
+    return verdict, seconds, failed, output
+
+
+def table(rows):
+    lines = ["| mutation | area | the bug | tests run | result | first failing test | s |",
+             "|---|---|---|---|---|---|---|"]
+    for mutation, verdict, seconds, failed in rows:
+        first = failed[0].replace("tests/", "") if failed else "-"
+        if len(failed) > 1:
+            first += f" (and {len(failed) - 1} more)"
+        tests = ", ".join(t.replace("tests/", "") for t in mutation.tests)
+        lines.append(f"| {mutation.name} | {mutation.area} | {mutation.what} | {tests} | "
+                     f"{verdict} | {first} | {seconds:.0f} |")
+    return "\n".join(lines)
+
+
+def run_all(mutations, echo=print):
+    rows = []
+    with tempfile.TemporaryDirectory(prefix="es2particles-mutations-") as folder:
+        folder = Path(folder)
+        make_copy(folder)
+        for mutation in mutations:
+            verdict, seconds, failed, output = run(folder, mutation)
+            echo(f"{mutation.name}: {verdict} in {seconds:.0f} s"
+                 + (f" ({failed[0]})" if failed else ""))
+            if verdict == "BROKEN":
+                echo(output[-3000:])
+            rows.append((mutation, verdict, seconds, failed))
+    return rows
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m tests.mutations", description=__doc__.split("\n")[0])
+    parser.add_argument("names", nargs="*", help="mutations to run (default: all)")
+    parser.add_argument("--list", action="store_true", help="list the mutations and stop")
+    args = parser.parse_args(argv)
+    known = {m.name: m for m in MUTATIONS}
+    unknown = [n for n in args.names if n not in known]
+    if unknown:
+        parser.error(f"no mutation named {', '.join(unknown)} (known: {', '.join(known)})")
+    chosen = [known[n] for n in args.names] or list(MUTATIONS)
+    if args.list:
+        for m in chosen:
+            print(f"{m.name:32} {m.area:14} {m.what}")
+        return 0
+    rows = run_all(chosen, echo=lambda line: print(line, file=sys.stderr, flush=True))
+    print(table(rows))
+    caught = sum(verdict == "caught" for _, verdict, _, _ in rows)
+    print(f"\n{caught} of {len(rows)} mutations caught.")
+    return 0 if caught == len(rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -133,7 +133,8 @@ def _contact(state, a, ea, d, ed, n, en, p):
         e_t = np.where(has_tangent[:, None], e_t, 0.0)
         m = n * sliding[:, None] + t * (1 - sliding)[:, None]
         e_m = (sliding[:, None] * en + (1 - sliding)[:, None] * e_t
-               + U * (np.abs(n) * sliding[:, None] + np.abs(t) * (1 - sliding)[:, None] + np.abs(m)))
+               + U * (np.abs(n) * sliding[:, None] + np.abs(t) * (1 - sliding)[:, None]
+                      + np.abs(m)))
         e_new = r * (e_speed[:, None] * np.abs(m) + speed[:, None] * e_m) \
             + 3 * U * r * speed[:, None] * np.abs(m)
         # head-on or not within float32 of the 1e-6 threshold: the tangent's share may differ
@@ -213,7 +214,8 @@ def _collide(state, a, ea, field, p, before, e_before):
         unsure = (np.abs(c - edge) <= e_c) & (edge >= 1) & (edge <= cells - 1)
         if unsure.any():
             other = np.where(c >= edge, edge - 1, edge).astype(int)  # the cell across the edge
-            ii, jj = (np.where(unsure, other, i), j) if axis == 0 else (i, np.where(unsure, other, j))
+            across = np.where(unsure, other, i if axis == 0 else j)
+            ii, jj = (across, j) if axis == 0 else (i, across)
             d_other, n_other, _ = _sample(field, x, ii, jj)
             e_d = e_d + np.where(unsure, np.abs(d_other - d), 0)
             e_n = e_n + np.where(unsure[:, None], np.abs(n_other - n), 0)

@@ -169,8 +169,8 @@ MUTATIONS = (
     # --- fountain ----------------------------------------------------------------------------
     Mutation("floor-bounce-elastic", "fountain",
              "the floor bounce keeps all the speed, shader and twin",
-             _both(FOUNTAIN, ("p.v.y = -p.v.y * u_bounce;", "p.v.y = -p.v.y;"),
-                   FOUNTAIN_TWIN, ("v[below, 1] *= -p.bounce", "v[below, 1] *= -1")),
+             _both(FOUNTAIN, ("p.v.y = u_bounce * sqrt(", "p.v.y = sqrt("),
+                   FOUNTAIN_TWIN, ("v[below, 1] = p.bounce * np.sqrt(", "v[below, 1] = np.sqrt(")),
              ("tests/test_twins.py", "tests/test_fountain.py")),
     Mutation("fountain-old-velocity", "fountain",
              "the position moved with last step's velocity (explicit Euler), shader only",

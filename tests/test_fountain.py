@@ -22,6 +22,9 @@ from es2particles.twins.fountain import fountain_step
 EXP_ULPS, DIVISION_ULPS = 3.0, 2.5
 
 
+SQRT_ULPS = 3  # GLSL ES 3.00's sqrt: as inversesqrt (2 ulp) then a reciprocal
+
+
 def ulps(n, magnitude):
     """n ulps of float32 values of magnitude up to ``magnitude`` (an ulp is twice the largest
     rounding error of its binade)."""
@@ -35,7 +38,7 @@ def step_bound(x, v, params, fmt, box=Fountain.box):
     The shader computes the same particle in float32: k and dt rounded to float32 (uniforms), kh
     and its rounding, exp(-kh) within GLSL's 3 + 2|x| ulp, the gain (1 - decay) / k (1 - decay is
     exact for decay in [0.5, 1], Sterbenz; the division within 2.5 ulp) or h (1 - kh / 2), then
-    v decay + g gain and x + v' dt, each product and sum rounded once. An RGBA8 start is decoded by
+    v decay + g gain and x + v' dt, each product and sum rounded once; a bounce as below. An RGBA8 start is decoded by
     the shader as numpy decodes it, but a driver may fuse the decode (the codec's rounding); the
     written values then err by the format's rounding (rgba32f: none, the value is stored as
     computed)."""
@@ -53,22 +56,42 @@ def step_bound(x, v, params, fmt, box=Fountain.box):
         gain = (1 - decay) / k
         e_gain = e_decay / k + float_rounding(gain) + ulps(DIVISION_ULPS, gain)
     g = np.asarray(p.gravity, float)
+    # the step's end before any bounce (float64; the twin's own for every particle not bounced)
+    ended_v = np.clip(v * decay + g * gain, -p.max_speed, p.max_speed)
+    ended_x = x + ended_v * h
     e_in_x = codec_error(lo, hi) if fmt == "rgba8" else 0.0
     e_in_v = codec_error(-p.max_speed, p.max_speed) if fmt == "rgba8" else 0.0
     v_decayed = np.abs(v) * decay
     e_v = (e_in_v * decay + np.abs(v) * e_decay + float_rounding(v_decayed)
-           + np.abs(g) * e_gain + 2 * float_rounding(g * gain) + float_rounding(np.abs(vr)))
-    step = np.abs(vr) * h
-    e_x = (e_in_x + e_v * h + float_rounding(h) * np.abs(vr) + float_rounding(step)
-           + float_rounding(np.abs(xr)))
-    bounced = (xr[:, 1] < 0) if p.floor == "bounce" else np.zeros(len(x), bool)
-    # x.y and v.y times -bounce (rounded to float32), and the product's rounding
-    for e, value in ((e_x, xr), (e_v, vr)):
-        e[bounced, 1] = e[bounced, 1] * p.bounce + 2 * float_rounding(np.abs(value[bounced, 1]))
+           + np.abs(g) * e_gain + 2 * float_rounding(g * gain) + float_rounding(np.abs(ended_v)))
+    step = np.abs(ended_v) * h
+    e_x = (e_in_x + e_v * h + float_rounding(h) * np.abs(ended_v) + float_rounding(step)
+           + float_rounding(np.abs(ended_x)))
+    # The floor is a branch: a particle ending within its float32 error of it could be on the
+    # other side on the GPU.
+    near_floor = np.abs(ended_x[:, 1]) <= e_x[:, 1]
+    if p.floor == "bounce":
+        # A bounce puts x.y on the floor (exactly 0) and v.y = r sqrt(max(s, 0)) with
+        # s = v.y^2 + 2 g.y depth, from the step's end before the bounce (the float64 twin's,
+        # recomputed here). s errs by its inputs' errors times its slopes plus its three
+        # roundings; sqrt carries an error e_s as at most min(e_s / sqrt(s), sqrt(e_s)) (near
+        # s = 0 the slope is unbounded; max(., 0) is 1-Lipschitz), then GLSL's sqrt (within
+        # SQRT_ULPS) and the products by r round.
+        bounced = ended_x[:, 1] < 0
+        vy, depth = ended_v[bounced, 1], -ended_x[bounced, 1]
+        s = vy * vy + 2 * g[1] * depth
+        e_s = (2 * np.abs(vy) * e_v[bounced, 1] + e_v[bounced, 1] ** 2
+               + 2 * abs(g[1]) * e_x[bounced, 1] + float_rounding(vy * vy)
+               + 2 * float_rounding(2 * abs(g[1]) * depth) + float_rounding(np.abs(s)))
+        root = np.sqrt(np.maximum(s, 0))
+        e_root = np.minimum(e_s / np.maximum(root, 1e-300), np.sqrt(e_s))
+        e_v[bounced, 1] = p.bounce * (e_root + ulps(SQRT_ULPS, root)) + 2 * float_rounding(
+            np.abs(vr[bounced, 1]))
+        e_x[bounced, 1] = 0.0
     if fmt == "rgba8":
         e_x = e_x + rounding_error(fmt, lo, hi)
         e_v = e_v + rounding_error(fmt, -p.max_speed, p.max_speed)
-    return xr, vr, died, e_x, e_v
+    return xr, vr, died, e_x, e_v, near_floor
 
 
 def alive(n, lifetime=2.4):
@@ -90,10 +113,8 @@ def test_one_step_matches_the_float64_twin(gl, fmt, floor):
         x0, v0 = sim.download("position"), sim.download("velocity")
         sim.step()
         x1, v1 = sim.download("position"), sim.download("velocity")
-    xr, vr, died, e_x, e_v = step_bound(x0, v0, params, fmt)
-    # The floor is a branch: a particle ending within its float32 error of it could be on the
-    # other side on the GPU (none does here).
-    assert not np.any(np.abs(xr[:, 1]) <= e_x[:, 1])
+    xr, vr, died, e_x, e_v, near_floor = step_bound(x0, v0, params, fmt)
+    assert not np.any(near_floor), "a particle ends within its float32 error of the floor"
     error_x, error_v = np.abs(x1 - xr)[~died], np.abs(v1 - vr)[~died]
     bound_x, bound_v = e_x[~died], e_v[~died]
     print(f"{fmt} {floor}: max |position error| {error_x.max():.3e}, |velocity error| "

@@ -18,7 +18,11 @@ def fountain_step(x, v, p, box=((-6.0, -1.0, -6.0), (6.0, 7.0, 6.0))):
     outside = np.any(x[:, [0, 2]] < lo[[0, 2]], axis=1) | np.any(x > hi, axis=1)
     below = (x[:, 1] < 0) & ~outside
     if p.floor == "bounce":
-        x[below, 1] *= -p.bounce
-        v[below, 1] *= -p.bounce
+        # Met the floor within the step: back onto it, rising with the bounce's share of the
+        # speed it had there (v^2 + 2 g depth, g < 0: what falling the depth below added is
+        # taken off), so no bounce gives energy and a resting particle stays at rest.
+        depth = -x[below, 1]
+        x[below, 1] = 0.0
+        v[below, 1] = p.bounce * np.sqrt(np.maximum(v[below, 1] ** 2 + 2 * p.gravity[1] * depth, 0))
         below = np.zeros(len(x), bool)
     return x, v, below | outside

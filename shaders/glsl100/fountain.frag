@@ -55,8 +55,13 @@ Particle particle_step(vec3 x, vec3 v, vec2 life, vec2 uv)
 #ifdef FLOOR_KILL
             return emit(uv);
 #else
-            p.x.y = -p.x.y * u_bounce;
-            p.v.y = -p.v.y * u_bounce;
+            // Met the floor within the step: back onto it, rising with the bounce's share of
+            // the speed it had there (the speed gained falling the depth below it is taken
+            // off: v^2 + 2 g depth, g < 0), so a bounce never gives energy and a particle at
+            // rest stays at rest. numpy twin: twins/fountain.py.
+            float depth = -p.x.y;
+            p.x.y = 0.0;
+            p.v.y = u_bounce * sqrt(max(p.v.y * p.v.y + 2.0 * u_gravity.y * depth, 0.0));
 #endif
         }
     }

@@ -110,3 +110,22 @@ def decode_error(value, lo, hi):
     rounded = product.astype(np.float32).astype(float)
     return np.where(rounded == product, 0.0,
                     np.abs(rounded - product) + 2 * float_rounding(value))
+
+
+def _hash_error():
+    """How far lib/hash.glsl's hash44 on a GPU can be from its numpy twin (twins/life.py), each
+    output taken round the circle [0, 1) (what fract leaves). The first step, fract(p c), is one
+    correctly rounded product both ways; then a driver may fuse and order the dot product
+    p . (p.wzxy + 33.33) otherwise: four products up to 34.33 and three sums up to 137.3, each
+    within its rounding of the exact, so the two sums differ by up to twice those; p + dot rounds
+    once more each way (p <= 138.3); (p.xxyz + p.yzzw) * p.zywx then carries the difference
+    through the sum (up to 276.6) and the product (up to 3.8e4), whose roundings add too."""
+    products, sums, p, s = 34.33, 137.3, 138.3, 276.6
+    dot = 2 * (4 * float_rounding(products) + 3 * float_rounding(sums))
+    e_p = dot + 2 * float_rounding(p)
+    e_s = 2 * e_p + 2 * float_rounding(s)
+    return float(p * e_s + s * e_p + 2 * float_rounding(p * s))
+
+
+# hash44's largest GPU-against-twin difference round the circle (0.050; llvmpipe's: 3.9e-3)
+HASH_ERROR = _hash_error()

@@ -172,3 +172,26 @@ def test_world_range_round_trip_and_top_of_range(gl):
     world_step = 4 / 65024
     assert np.abs(got - expected).max() <= world_step / 2 + 1e-6, got
     assert got[0, 1] == 2.0 and got[1, 0] == 2.0, "the top of the range must stay the top"
+
+
+@pytest.mark.parametrize("fmt", ["rgba8", "rgba16f", "rgba32f"])
+def test_a_pass_writing_beyond_the_range_is_clamped_into_it(gl, fmt):
+    """Every format holds a quantity within its range: a write beyond either end stores the end
+    (RGBA8 by its codec's clamp, the float formats by state_clamp), in every component."""
+    from bounds import rounding_error
+    from conftest import wide_graph
+    from es2particles import Simulation
+
+    shift = (5.0, -5.0, 0.25, 0.0)  # past +1, past -1, within: position's range is [-1, 1]
+    start = np.array([[0.5, -0.5, 0.5], [-0.9, 0.9, -0.2], [0.0, 0.0, 0.0]])
+    with Simulation(gl, wide_graph(shift), len(start), fmt=fmt) as sim:
+        sim.upload("position", start)
+        sim.upload("mass", np.ones(len(start)))
+        sim.upload("colour", np.ones((len(start), 4)))
+        before = sim.download("position")
+        sim.step()
+        got = sim.download("position")
+    exact = np.clip(before + np.array(shift[:3]), -1, 1)
+    assert np.array_equal(got[:, :2], exact[:, :2]), f"{fmt}: the ends, {got[:, :2]}"
+    # within the range: one write's rounding (half a code in RGBA8, half an ulp in float16)
+    assert np.abs(got[:, 2] - exact[:, 2]).max() <= rounding_error(fmt, -1, 1)

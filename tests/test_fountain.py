@@ -38,10 +38,10 @@ def step_bound(x, v, params, fmt, box=Fountain.box):
     The shader computes the same particle in float32: k and dt rounded to float32 (uniforms), kh
     and its rounding, exp(-kh) within GLSL's 3 + 2|x| ulp, the gain (1 - decay) / k (1 - decay is
     exact for decay in [0.5, 1], Sterbenz; the division within 2.5 ulp) or h (1 - kh / 2), then
-    v decay + g gain and x + v' dt, each product and sum rounded once; a bounce as below. An RGBA8 start is decoded by
-    the shader as numpy decodes it, but a driver may fuse the decode (the codec's rounding); the
-    written values then err by the format's rounding (rgba32f: none, the value is stored as
-    computed)."""
+    v decay + g gain and x + v' dt, each product and sum rounded once; a bounce as below. An RGBA8
+    start is decoded by the shader as numpy decodes it, but a driver may fuse the decode (the
+    codec's rounding); the written values then err by the format's rounding (rgba32f: none, the
+    value is stored as computed)."""
     p = params
     xr, vr, died = fountain_step(x, v, p, box)
     lo, hi = (np.asarray(b, float) for b in box)

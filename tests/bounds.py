@@ -129,3 +129,12 @@ def _hash_error():
 
 # hash44's largest GPU-against-twin difference round the circle (0.050; llvmpipe's: 3.9e-3)
 HASH_ERROR = _hash_error()
+
+
+def sqrt_error(value, error):
+    """The largest |sqrt(max(x, 0)) - sqrt(max(value, 0))| for |x - value| <= error: at most
+    min(error / m, sqrt(error)) with m = sqrt(value) > 0 (the slope is unbounded near 0); a value
+    clamped to 0 stays within sqrt(max(value + error, 0))."""
+    root = np.sqrt(np.maximum(value, 0))
+    return np.where(root > 0, np.minimum(error / np.where(root > 0, root, 1), np.sqrt(error)),
+                    np.sqrt(np.maximum(value + error, 0)))

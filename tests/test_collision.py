@@ -11,7 +11,8 @@ write fails it at the first step.
 import numpy as np
 import pytest
 
-from bounds import HASH_ERROR, U, codec_error, decode_error, half_code, rounding_error
+from bounds import (HASH_ERROR, U, codec_error, decode_error, half_code, rounding_error,
+                    sqrt_error)
 from es2particles import ParameterError, Simulation
 from es2particles.fields.field2d import Box, Circle, CollisionField
 from es2particles.scenes.collision import RECT, Collision, CollisionParams
@@ -163,9 +164,7 @@ def _contact(state, a, ea, d, ed, n, en, p):
         scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
         rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
         magnitude = np.sqrt(np.maximum(number, 0))
-        # |sqrt(m^2 + e) - m| <= min(e / m, sqrt(e)); a clamped 0 stays 0 below -e
-        e_magnitude = np.where(magnitude > 0, np.minimum(e_number / magnitude, np.sqrt(e_number)),
-                               np.sqrt(np.maximum(number + e_number, 0)))
+        e_magnitude = sqrt_error(number, e_number)
         direction = turned / np.where(v2 > 0, np.sqrt(v2), 1)[:, None]
         across = _perp(direction)
         e_direction = np.abs(across) * np.minimum(2, _along(across, e_turned)

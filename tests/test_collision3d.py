@@ -11,7 +11,7 @@ import pytest
 
 from PIL import Image
 
-from bounds import HASH_ERROR, TRIG_ERROR, U, codec_error
+from bounds import HASH_ERROR, TRIG_ERROR, U, codec_error, sqrt_error
 from es2particles.gl import astc
 from es2particles.cli import main
 from es2particles.errors import ParameterError
@@ -259,8 +259,7 @@ def _respond(state, a, ea, d, ed, n, en, p, turn):
         scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
         rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
         magnitude = np.sqrt(np.maximum(number, 0))
-        e_magnitude = np.where(magnitude > 0, np.minimum(e_number / magnitude, np.sqrt(e_number)),
-                               np.sqrt(np.maximum(number + e_number, 0)))
+        e_magnitude = sqrt_error(number, e_number)
         direction = turned / np.where(v2 > 0, np.sqrt(v2), 1)[:, None]
         e_direction = np.minimum(2, _across(direction, e_turned) / np.sqrt(v2)[:, None])
         e_rescaled = (e_magnitude[:, None] * np.abs(direction) + magnitude[:, None] * e_direction

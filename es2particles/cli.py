@@ -67,6 +67,12 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("es2particles: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:
+        # What the memory estimate (frame/memory.py) did not foresee: one line, and the outputs
+        # are removed as for any other failure on the way out.
+        print("es2particles: error: out of memory: lower --particles, --size or "
+              "--field-resolution", file=sys.stderr)
+        return 1
     finally:
         restore()
         shown()

@@ -69,6 +69,9 @@ def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None):
     moved = q - q_before
     back = ((d < 0) & (np.sum(moved * n, axis=1) > 0) & (d > -2 * field.voxel)
             & (d < -0.25 * field.voxel))  # from a quarter voxel deep (see collision3d.frag)
+    if np.any(back):  # and from where the surface faces the other way
+        came_from = field.sample(q_before[back], decoded)[1]
+        back[back] = np.sum(came_from * n[back], axis=1) < 0
     n = np.where(back[:, None], -n, n)
     d = np.where(back, np.sum(moved * n, axis=1), d)
     hit = d < 0

@@ -2,9 +2,27 @@
 
 Paths are checked before any GL work starts, and every file is written to a temporary name in the
 same folder and renamed at the end, so a failure never leaves a half-written file behind.
+
+Temporaries carry their owner. A temporary file is ``.NAME.MARK.XXXXXXXX.part`` and an
+animation's frames folder ``.NAME.MARK.XXXXXXXX.frames``, where MARK (:func:`owner_mark`) names
+the process that made it: ``es2particles.MACHINE.PID.START``, MACHINE a hash of the host name,
+the boot and the PID namespace, START the process's start time (``/proc/PID/stat``), which a
+later process given the same PID does not share. A SIGKILL cannot be caught, so each write first
+removes what killed runs left for its output (:func:`remove_leftovers`): only names with a mark
+of this machine whose owner is checked dead (no such PID, or another start time, or a zombie).
+A name without a mark, or with another machine's, or an owner that cannot be checked, is left
+alone: a user's ``.o.png.backup.part`` is never touched, nor a live run's temporaries.
+
+Two runs to one output: each writes under its own temporary names, and the last to finish wins.
+The final rename is atomic, so the output is always a whole file of one run, never a mixture.
 """
 
+import contextlib
+import functools
+import hashlib
 import os
+import re
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -14,6 +32,9 @@ from ..errors import ParameterError
 
 IMAGE_SUFFIXES = {".png": "PNG"}
 NAME_MAX = 255  # bytes of a file name on the file systems this runs on
+# Bytes a temporary's name adds to the output's: ".", ".es2particles.MACHINE.PID.START.", mkstemp's
+# 8 characters and ".frames" (a PID of 7 digits, a start time of 20).
+TEMPORARY_DECORATION = 1 + len(".es2particles.") + 8 + 1 + 7 + 1 + 20 + 1 + 8 + len(".frames")
 ANIMATION_SUFFIXES = {".webp": "WEBP", ".gif": "GIF", ".png": "PNG", ".mp4": "MP4"}
 VIDEO_EXTRA = "MP4 needs the video extra: pip install 'es2particles[video]' (imageio-ffmpeg)"
 
@@ -30,9 +51,10 @@ def check_output(path, parameter, suffixes):
     if path.suffix.lower() not in suffixes:
         raise ParameterError(f"{parameter} must end in {', '.join(sorted(suffixes))}, got {str(path)!r}")
     check_folder(path.parent if str(path.parent) else Path("."), parameter)
-    if len(path.name.encode()) > NAME_MAX - 24:  # room for the temporary name's decoration
+    longest = NAME_MAX - TEMPORARY_DECORATION  # room for the temporary name's decoration
+    if len(path.name.encode()) > longest:
         raise ParameterError(f"{parameter}: the file name is {len(path.name.encode())} bytes; at "
-                             f"most {NAME_MAX - 24}")
+                             f"most {longest}")
     if path.exists() and not os.access(path, os.W_OK):
         raise ParameterError(f"{parameter}: {str(path)!r} is not writable")
     if path.is_dir():
@@ -59,23 +81,154 @@ def check_folder(folder, parameter):
     return folder
 
 
+# --- temporaries and their owners -----------------------------------------------------------
+
+PART, FRAMES = ".part", ".frames"  # a temporary file; an animation's frames folder
+_MARK = r"es2particles\.([0-9a-f]{8})\.([1-9][0-9]{0,6})\.([0-9]{1,20})"
+_OWN_MARK = {}  # pid -> this process's mark, made once (a fork has another pid, and its own)
+
+
+def owner_mark(pid=None):
+    """The mark a temporary of process ``pid`` (default: this one) carries in its name:
+    ``es2particles.MACHINE.PID.START``, MACHINE this machine's (:func:`machine_hash`), START
+    the process's start time in clock ticks since boot (0 where there is no ``/proc``)."""
+    if pid is None:
+        pid = os.getpid()
+        if pid not in _OWN_MARK:
+            _OWN_MARK[pid] = owner_mark(pid)
+        return _OWN_MARK[pid]
+    stat = _process_stat(pid)
+    return f"es2particles.{machine_hash()}.{pid}.{0 if stat is None else stat[1]}"
+
+
+def temporary_prefix(path, pid=None):
+    """The start of the name of a temporary for ``path`` made by process ``pid`` (default: this
+    one): ``.NAME.MARK.``, to which mkstemp adds its random characters and the suffix,
+    :data:`PART` or :data:`FRAMES`."""
+    return f".{Path(path).name}.{owner_mark(pid)}."
+
+
+@functools.cache
+def machine_hash():
+    """8 hex digits naming this host, this boot and this PID namespace: a PID is checked only
+    where it means the same process (another machine on a shared folder, an earlier boot, or a
+    container with its own PIDs gives another hash, and its temporaries are left alone)."""
+    parts = [os.uname().nodename]
+    for source in ("/proc/sys/kernel/random/boot_id", "/proc/self/ns/pid"):
+        try:
+            parts.append(os.readlink(source) if "/ns/" in source else
+                         Path(source).read_text().strip())
+        except OSError:
+            parts.append("")
+    return hashlib.sha1("\0".join(parts).encode()).hexdigest()[:8]
+
+
+def _process_stat(pid):
+    """(state letter, start time in clock ticks since boot) of process ``pid`` from
+    ``/proc/PID/stat``, or None where it cannot be read."""
+    try:
+        text = Path(f"/proc/{pid}/stat").read_text()
+    except (OSError, ValueError):
+        return None
+    # After "pid (command) ", the command being any text (spaces and brackets too).
+    fields = text[text.rindex(")") + 2:].split()
+    return fields[0], int(fields[19])
+
+
+def owner_alive(pid, start):
+    """False only where process ``pid`` started at ``start`` is certainly gone: no process has
+    that PID, or the one that has it started at another time (the PID was reused), or it is a
+    zombie. A process that exists but cannot be read (another user's, under hidepid) counts as
+    alive."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, and is another user's
+        pass
+    stat = _process_stat(pid)
+    if stat is None or start == 0:  # nothing to compare: it may be the owner
+        return True
+    state, started = stat
+    return started == start and state not in ("Z", "X")
+
+
+def leftover_owner(name, path):
+    """(pid, start) of the process that made ``name`` as a temporary for ``path`` on this
+    machine, or None where ``name`` is not one (no mark, another output's, another machine's)."""
+    match = re.fullmatch(re.escape(f".{Path(path).name}.") + _MARK
+                         + r"\.[a-z0-9_]+(\.part|\.frames)", name)
+    if match is None or match.group(1) != machine_hash():
+        return None
+    return int(match.group(2)), int(match.group(3))
+
+
 def remove_leftovers(path):
-    """Remove what a killed earlier run left for ``path`` (its hidden temporary files and frame
-    folders; a SIGKILL cannot be caught, so the next run cleans up)."""
-    import shutil
-
+    """Remove what killed runs left for ``path`` (a SIGKILL cannot be caught, so the next run
+    cleans up): temporaries whose mark names a process of this machine that is gone. Anything
+    else is left alone (see the module's docstring); returns the names removed."""
     path = Path(path)
-    for stale in (path.parent or Path(".")).glob(f".{glob_escape(path.name)}.*"):
-        if stale.name.endswith(".part"):
+    folder = path.parent  # Path("o.png").parent is Path(".")
+    removed = []
+    try:
+        names = os.listdir(folder)
+    except OSError:
+        return removed
+    for name in names:
+        owner = leftover_owner(name, path)
+        if owner is None or owner_alive(*owner):
+            continue
+        stale = folder / name
+        if name.endswith(PART) and stale.is_file() and not stale.is_symlink():
             stale.unlink(missing_ok=True)
-        elif stale.name.endswith(".frames") and stale.is_dir():
+        elif name.endswith(FRAMES) and stale.is_dir() and not stale.is_symlink():
             shutil.rmtree(stale, ignore_errors=True)
+        else:
+            continue
+        removed.append(name)
+    return removed
 
 
-def glob_escape(name):
-    import glob
+def make_folders(folder):
+    """Make ``folder`` and any missing parents; returns those made here, outermost first, so
+    that :func:`remove_made_folders` can take them away again."""
+    folder = Path(folder)
+    missing = []
+    while not folder.exists() and folder != folder.parent:
+        missing.append(folder)
+        folder = folder.parent
+    made = []
+    for folder in reversed(missing):
+        try:
+            folder.mkdir()
+        except FileExistsError:  # another run made it meanwhile: it is not ours to remove
+            continue
+        made.append(folder)
+    return made
 
-    return glob.escape(name)
+
+def remove_made_folders(made):
+    """Remove the folders :func:`make_folders` made, innermost first, where they are empty (a
+    file in one, anyone's, keeps it and those around it)."""
+    for folder in reversed(made):
+        with contextlib.suppress(OSError):
+            folder.rmdir()
+
+
+def _temporary(path, make, suffix):
+    """``make(prefix=, suffix=, dir=)`` (mkstemp or mkdtemp) for ``path``, in its folder, made
+    first where missing; returns (what make returned, the folders made). A folder removed by a
+    failed run between the two (see :func:`remove_made_folders`) is made again."""
+    path = Path(path)
+    folder = path.parent
+    made = []
+    for attempt in range(3):
+        made += make_folders(folder)
+        try:
+            return make(prefix=temporary_prefix(path), suffix=suffix, dir=folder), made
+        except FileNotFoundError:
+            if attempt == 2:
+                raise
 
 
 def check_video(path, size):
@@ -103,11 +256,16 @@ class AnimationWriter:
     def __init__(self, path, fps=30):
         self.path, self.fps = Path(path), fps
         self.format = ANIMATION_SUFFIXES[self.path.suffix.lower()]
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        remove_leftovers(self.path)
-        self.folder = Path(tempfile.mkdtemp(prefix=f".{self.path.name}.", suffix=".frames",
-                                            dir=self.path.parent))
         self.count, self.video, self.size = 0, None, None
+        self.folder, self.made = None, []
+        remove_leftovers(self.path)
+        try:
+            with signals_deferred():  # an interrupt comes once self.folder names the folder
+                folder, self.made = _temporary(self.path, tempfile.mkdtemp, FRAMES)
+                self.folder = Path(folder)
+        except BaseException:
+            self.abort()
+            raise
 
     def add(self, frame):
         frame = np.ascontiguousarray(frame, dtype=np.uint8)
@@ -145,7 +303,7 @@ class AnimationWriter:
         try:
             if self.format == "MP4":
                 self.video.close()
-                os.replace(self.folder / "video.mp4", self.path)
+                write_atomic(self.path, lambda tmp: os.replace(self.folder / "video.mp4", tmp))
             else:
                 # Opening a PNG reads its header only: the pixels are read one frame at a time
                 # as the encoder takes them (a list: pillow's APNG writer takes no generator).
@@ -161,16 +319,17 @@ class AnimationWriter:
         return self.path
 
     def abort(self):
-        """Remove everything written so far (the output itself is untouched)."""
-        import shutil
-
+        """Remove everything written so far, and the folders made for it where they are empty
+        (the output itself is untouched)."""
         if self.video is not None:
             try:
                 self.video.close()
             except Exception:  # ffmpeg may already have gone; its files go anyway
                 pass
             self.video = None
-        shutil.rmtree(self.folder, ignore_errors=True)
+        if self.folder is not None:
+            shutil.rmtree(self.folder, ignore_errors=True)
+        remove_made_folders(self.made)
 
     def __enter__(self):
         return self
@@ -182,21 +341,52 @@ class AnimationWriter:
 
 def write_atomic(path, write):
     """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure.
-    Missing folders on the way are made first."""
+    Missing folders on the way are made first (and removed again on failure, where empty)."""
     path = Path(path)
-    (path.parent or Path(".")).mkdir(parents=True, exist_ok=True)
     remove_leftovers(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent or ".")
-    os.close(fd)
+    tmp, made = None, []
     try:
+        with signals_deferred():  # an interrupt comes once tmp names what is to be removed
+            (fd, tmp), made = _temporary(path, tempfile.mkstemp, PART)
+            os.close(fd)
         write(tmp)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual mode
         os.replace(tmp, path)
     except BaseException:
-        if os.path.exists(tmp):
+        if tmp is not None and os.path.exists(tmp):
             os.remove(tmp)
+        remove_made_folders(made)
         raise
     return path
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """SIGINT and SIGTERM held back while the block runs, then delivered as they would have
+    been (the command turns both into KeyboardInterrupt): a few renames are not cut in two. In a
+    thread other than the main one, where Python runs no signal handler, nothing is changed."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+
+    def hold(signum, frame):
+        caught.append(signum)
+
+    previous = {}
+    for number in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(number) is not None:  # None: a handler set outside Python, kept
+            previous[number] = signal.signal(number, hold)
+    try:
+        yield
+    finally:
+        for number, handler in previous.items():
+            signal.signal(number, handler)
+        for number in dict.fromkeys(caught):
+            signal.raise_signal(number)
 
 
 def _umask():

@@ -1,0 +1,141 @@
+"""Outputs that are safe against concurrent runs and interruptions (issue #28): the start-up
+clean-up removes only temporaries whose owner is checked dead, and two runs to one output both
+finish with a whole file of one of them. Real processes throughout; no GL is mocked."""
+
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+from PIL import Image
+
+from es2particles.io.output import FRAMES, PART, remove_leftovers, temporary_prefix
+
+COMMAND = [sys.executable, "-m", "es2particles"]
+SMALL = ["--particles", "1024", "--size", "64x64"]
+
+
+def start(*args):
+    """The command started with ``args``, its output and errors piped."""
+    return subprocess.Popen([*COMMAND, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+
+
+def finish(process, timeout=120):
+    """(exit status, standard error) of ``process`` once it ends."""
+    _, err = process.communicate(timeout=timeout)
+    return process.returncode, err
+
+
+def names(folder):
+    return sorted(p.name for p in folder.iterdir())
+
+
+def leftover(folder, out, pid, kind, mark=None):
+    """A temporary of ``out`` in ``folder`` as process ``pid`` names one (``mark``: its mark
+    changed into this), with a file inside where it is a frames folder; returns its path."""
+    name = temporary_prefix(out, pid) + "abcd1234" + kind
+    if mark is not None:
+        name = mark(name)
+    path = folder / name
+    if kind == FRAMES:
+        path.mkdir()
+        (path / "000000.png").write_bytes(b"frame")
+    else:
+        path.write_bytes(b"half")
+    return path
+
+
+def test_the_clean_up_removes_only_temporaries_whose_owner_is_dead(tmp_path):
+    """Owners are real processes: this test, a live child, a killed and reaped one (its mark
+    taken while it lived, as a run's is), a killed one not yet reaped (a zombie)."""
+    out = tmp_path / "o.png"
+    alive = subprocess.Popen(["sleep", "30"])
+    killed = subprocess.Popen(["sleep", "30"])
+    zombie = subprocess.Popen(["sleep", "30"])
+    try:
+        kept = [leftover(tmp_path, out, os.getpid(), PART),  # this test's own
+                leftover(tmp_path, out, alive.pid, PART),
+                leftover(tmp_path, out, alive.pid, FRAMES)]
+        dead = [leftover(tmp_path, out, killed.pid, PART),
+                leftover(tmp_path, out, killed.pid, FRAMES),
+                leftover(tmp_path, out, zombie.pid, PART)]
+        # Another machine's run (another host, boot or PID namespace) cannot be checked: kept,
+        # even with this dead PID. A live PID with another start time was reused: its owner is
+        # dead.
+        elsewhere = leftover(tmp_path, out, killed.pid, PART,
+                             lambda n: n.replace(n.split(".")[4], "00000000"))
+        start_time = temporary_prefix(out, alive.pid).split(".")[-2]
+        reused = leftover(tmp_path, out, alive.pid, PART,
+                          lambda n: n.replace(f".{start_time}.", f".{int(start_time) + 1}."))
+        user = [tmp_path / ".o.png.backup.part", tmp_path / ".o.png.abc12345.part"]
+        for path in user:
+            path.write_bytes(b"mine")
+        (tmp_path / ".o.png.x.frames").mkdir()
+        killed.kill()
+        killed.wait()
+        zombie.kill()  # killed, not reaped: a zombie
+        while open(f"/proc/{zombie.pid}/stat").read().rsplit(")", 1)[1].split()[0] != "Z":
+            time.sleep(0.01)
+        removed = remove_leftovers(out)
+        assert sorted(removed) == sorted(p.name for p in dead + [reused])
+        assert names(tmp_path) == sorted(p.name for p in kept + user + [elsewhere]
+                                         + [tmp_path / ".o.png.x.frames"])
+        assert (kept[2] / "000000.png").read_bytes() == b"frame"
+    finally:
+        for child in (alive, killed, zombie):
+            child.kill()
+            child.wait()
+
+
+@pytest.mark.gl
+def test_a_run_leaves_the_user_s_files_and_removes_a_dead_run_s(tmp_path):
+    """A user's ``.o.png.backup.part`` and a ``.o.png.x.frames`` folder without a mark survive
+    a still and an animation to o.png; a dead run's temporaries of o.png go."""
+    out = tmp_path / "o.png"
+    (tmp_path / ".o.png.backup.part").write_bytes(b"mine")
+    (tmp_path / ".o.png.x.frames").mkdir()
+    (tmp_path / ".o.png.x.frames" / "notes.txt").write_text("mine")
+    killed = subprocess.Popen(["sleep", "30"])
+    for kind in (PART, FRAMES):
+        leftover(tmp_path, out, killed.pid, kind)
+    killed.kill()
+    killed.wait()
+    status, err = finish(start("run", "dejong", *SMALL, "--out", str(out)))
+    assert status == 0, err
+    assert names(tmp_path) == [".o.png.backup.part", ".o.png.x.frames", "o.png"]
+    leftover(tmp_path, out, killed.pid, FRAMES)  # an animation's writer cleans up too
+    status, err = finish(start("run", "dejong", *SMALL, "--frames", "2", "--out", str(out)))
+    assert status == 0, err
+    assert names(tmp_path) == [".o.png.backup.part", ".o.png.x.frames", "o.png"]
+    assert (tmp_path / ".o.png.backup.part").read_bytes() == b"mine"
+    assert (tmp_path / ".o.png.x.frames" / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_two_runs_to_one_output_both_finish_and_one_of_them_wins(tmp_path):
+    """The second run starts while the first one's frames folder is there (it once removed it,
+    and the first run failed); both finish, and the output is a whole animation of one of them."""
+    out = tmp_path / "o.webp"
+    run = ["run", "dejong", "--particles", "65536", "--size", "128x128", "--out", str(out)]
+    first = start(*run, "--frames", "150")
+    deadline = time.monotonic() + 60
+    while not any(n.endswith(FRAMES) for n in os.listdir(tmp_path)):
+        assert first.poll() is None and time.monotonic() < deadline, finish(first)
+        time.sleep(0.02)
+    second = start(*run, "--frames", "20")
+    second_status, second_err = finish(second)
+    first_running = first.poll() is None  # the second ran wholly inside the first
+    first_status, first_err = finish(first)
+    assert (first_status, second_status) == (0, 0), first_err + second_err
+    assert names(tmp_path) == ["o.webp"]
+    with Image.open(out) as animation:
+        frames = animation.n_frames
+        for index in range(frames):
+            animation.seek(index)
+            animation.convert("RGB").load()  # every frame decodes: a whole file
+    assert frames in (150, 20)
+    if first_running:  # the last to finish wins
+        assert frames == 150

@@ -409,8 +409,9 @@ def shadow_map(gl, settings, points, opacity=1.0, fmt="rgba32f"):
     sprites = Sprites(sprite=white, size_spread=0.0, attenuation=(0, 0, 1), opacity=opacity,
                       shadow=replace(settings, format=fmt))
     with still(gl, points) as (sim, quantities):
-        # point size 0: every sprite below a pixel, clamped to one pixel, in the map too
-        with Renderer(gl, sprites, sim, size=(16, 16), point_size=0.0) as renderer:
+        # point size 1 in a 16-pixel image: every sprite below a pixel, clamped to one pixel, in
+        # the map too
+        with Renderer(gl, sprites, sim, size=(16, 16), point_size=1.0) as renderer:
             renderer.draw(CAMERA)
             data = renderer.read("shadow map").astype(np.float64)
     if fmt == "rgba8":

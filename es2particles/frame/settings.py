@@ -127,6 +127,7 @@ MAX_ACCUMULATE = 10 ** 6
 # Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
 # with exit 0 (--intensity 1e39 did that).
 MAX_INTENSITY = 1e6
+MAX_POINT_SIZE = 1e4  # a sprite 10 images across at 1024 high: beyond any scene's use
 
 
 def _setting(name, default, lo=None, hi=None, **kwargs):
@@ -146,7 +147,9 @@ SETTINGS = {d.name: d for d in (
     _setting("steps", None, 0, MAX_STEPS, integer=True,
              help="simulation steps before the (first) frame"),
     _setting("seed", 0, 0, 2 ** 63 - 1, integer=True, help="seed of the starting state"),
-    _setting("point_size", None, 0.0, None, unit="pixels",
+    # At least a pixel for points and sprites alike (a size of 0 drew nothing, and a sprite
+    # below a pixel is drawn as one anyway); the context's own range bounds a point's further.
+    _setting("point_size", None, 1.0, MAX_POINT_SIZE, unit="pixels",
              help="point or sprite diameter (a sprite's at the camera distance where its "
                   "attenuation is 1, in an image 1024 high)"),
     _setting("intensity", 1.0, 0.0, MAX_INTENSITY, help="density each particle adds"),

@@ -112,8 +112,8 @@ class Density(Rendering):
                                   "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
         fetch = fetch == "on" or (fetch == "auto" and units >= 1)
         lo, hi = caps.point_size_range
-        point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
-                                 lo, hi)
+        point_size = check_range("point_size", setting(
+            "point_size", b.setting("point_size", defaults.point_size)), lo, hi)
         intensity = setting("intensity", b.setting("intensity", 1.0))
         b.accumulate = setting("accumulate", b.setting("accumulate", 1))
         fmt, note = choose_accumulation(caps)

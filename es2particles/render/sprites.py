@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import CapabilityError, ParameterError, check_range
 from ..frame.plan import Ref, Rendering, Resource, Stage, Vertices
+from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 from .meshes import plan_meshes
@@ -106,7 +107,7 @@ def load_sprite(spec):
         return SPRITES[spec]()
     from ..io.images import read_image
 
-    return np.asarray(read_image(spec, f"sprite (one of {sorted(SPRITES)} or an image)"),
+    return np.asarray(read_image(spec, f"--sprite (one of {sorted(SPRITES)} or an image)"),
                       dtype=np.uint8)
 
 
@@ -324,8 +325,7 @@ class Sprites(Rendering):
         caps, layout, fmt = b.caps, b.layout, b.format
         quantities = self.role_quantities(b.graph_plan)
         lo, hi = caps.point_size_range
-        point_size = check_range("point_size", b.setting("point_size", defaults.point_size),
-                                 0.0, 1e4)
+        point_size = setting("point_size", b.setting("point_size", defaults.point_size))
         fade = check_range("fade", self.fade, 0.0, hi)
         # ES 2.0 promises no vertex texture units at all; each part of a read quantity, the
         # order, and the shadow map with the sprite (its footprint there) take one.

@@ -33,6 +33,11 @@ class NothingDrawnWarning(UserWarning):
     message says the sizes and distances that made it so."""
 
 
+class CostWarning(UserWarning):
+    """A scene's parameters make a step far costlier than its defaults do (sub-steps, field
+    size); the message names the cost, its value and the defaults'."""
+
+
 class GraphError(Es2ParticlesError):
     """A pass graph is inconsistent: a cycle, a read nobody provides, two writers of one quantity."""
 

@@ -792,7 +792,7 @@ SMALL = ["--particles", "1024", "--size", "96x96", "--steps", "30"]
 
 @pytest.mark.parametrize("args, message", [
     (["--shape", "sphere:1,2"], "sphere:CX,CY,CZ,R"), (["--spin", "fast"], "--spin must be"),
-    (["--field-format", "astc7x7"], "field format must be"),
+    (["--field-format", "astc7x7"], "--field-format must be"),
     (["--emitter", "0,9,0"], "--emitter Y must be in [-4, 7], got 9"), (["--sway", "1,0,0,0"], "sway needs a period"),
     (["--shape", "torus:0,1,0,0.8,0.01"], "thinner than two voxels")])
 def test_bad_options_are_one_line(tmp_path, capsys, args, message):

@@ -232,3 +232,105 @@ def test_an_output_that_is_a_symlink_is_replaced_not_written_through(tmp_path):
     (tmp_path / "x.png").symlink_to(victim)
     assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 0
     assert victim.read_text() == "keep me" and not (tmp_path / "x.png").is_symlink()
+
+
+# --- every option of every scene, checked one way (issue 28, item 6) ----------------------------
+
+NONSENSE = ["nan", "inf", "-inf", "1e308", "-1e308", "", "x", "-1", "0"]
+
+
+def _numeric_options(name):
+    """The flag -> declaration of every number a scene's run takes: its parameters and the frame
+    settings its rendering uses."""
+    from es2particles.frame.settings import BLOOM_PARTS, COMMON_SETTINGS, SETTINGS
+    from es2particles.scenes import scene_class
+
+    cls = scene_class(name)
+    declared = list(cls.Params.options().values())
+    for setting in COMMON_SETTINGS + tuple(cls.renders.settings):
+        declared += [SETTINGS[p] for p in BLOOM_PARTS] if setting == "bloom" else \
+            [SETTINGS[setting]] if setting in SETTINGS else []
+    return {d.flag_name: d for d in declared if not (d.flag or d.text or d.choices)}
+
+
+def _refused(declaration, value):
+    from es2particles.errors import ParameterError
+
+    try:
+        declaration.convert(value)
+    except ParameterError:
+        return True
+    return False
+
+
+@pytest.mark.parametrize("scene", ["dejong", "clifford", "collision", "fountain", "collision3d",
+                                   "confetti", "smoke"])
+def test_every_number_of_every_scene_is_refused_alike_before_a_context(scene, tmp_path, capsys,
+                                                                       monkeypatch):
+    """nan, infinities, huge, empty, words, and values out of each option's declared range: one
+    line naming the option, exit 2, no file, and before any GL context (there is none to make
+    here). 3D scenes once took --exposure nan and --point-size 0, collision3d --sway ''."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    out = tmp_path / "x.png"
+    refused = 0
+    for flag, declaration in _numeric_options(scene).items():
+        for value in NONSENSE:
+            if not _refused(declaration, value):
+                continue  # a value in the range (--spin -1): the context's turn to fail
+            assert main(["run", scene, f"{flag}={value}", "--out", str(out)]) == 2, (flag, value)
+            err = capsys.readouterr().err.strip()
+            assert len(err.splitlines()) == 1 and flag in err and "OpenGL" not in err, \
+                (flag, value, err)
+            refused += 1
+    assert refused > 40 and list(tmp_path.iterdir()) == []
+
+
+def test_the_point_size_is_a_pixel_or_more_for_points_and_sprites(tmp_path, capsys,
+                                                                  monkeypatch):
+    """The 2D scenes required 1 or more (the context's range), the 3D ones took 0 and drew
+    nothing: one declared range for both, checked before a context."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    for scene in ("dejong", "fountain", "smoke"):
+        for size in ("0", "0.5", "1e5"):
+            assert main(["run", scene, "--point-size", size, "--out",
+                         str(tmp_path / "x.png")]) == 2
+            assert "--point-size must be in [1, 10000]" in capsys.readouterr().err
+
+
+# --- warnings of cost (issue 28, item 6) -------------------------------------------------------
+
+@pytest.mark.parametrize("scene", ["collision", "collision3d", "confetti"])
+def test_the_stated_typical_costs_are_the_defaults(scene):
+    """Scene.typical_cost, what a cost warning compares with, is what the defaults cost."""
+    import warnings
+
+    from es2particles.scenes import scene_class
+
+    cls = scene_class(scene)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the defaults warn of nothing
+        assert cls().cost() == cls.typical_cost
+
+
+@pytest.mark.parametrize("scene, arguments, said", [
+    ("collision3d", ["--shape", "sphere:0,1,0,0.01"], "1,956 sub-steps a step: 98x the 20"),
+    ("collision3d", ["--field-resolution", "160"], "4,096,000 field cells: 16x the 262,144"),
+    ("collision", ["--dt", "0.2"], "580 sub-steps a step: 12x the 49"),
+    ("collision", ["--field-resolution", "1024"], "1,048,576 field cells: 16x the 65,536")])
+def test_a_plan_far_costlier_than_the_defaults_is_said(scene, arguments, said, tmp_path, capsys,
+                                                       monkeypatch):
+    """One warning line, before the work it is of (the field made, the steps run): the
+    command goes on (here to the missing context)."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    if "--field-resolution" in arguments:
+        pytest.importorskip("scipy")
+    main(["run", scene, *arguments, "--out", str(tmp_path / "x.png")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[0].startswith("es2particles: warning: ") and said in lines[0], lines
+    assert sum("warning" in line for line in lines) == 1, lines
+
+
+def test_a_cost_at_the_defaults_or_slightly_above_is_not_said(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    main(["run", "collision3d", "--field-resolution", "96", "--out", str(tmp_path / "x.png")])
+    assert "warning" not in capsys.readouterr().err

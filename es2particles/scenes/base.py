@@ -13,14 +13,21 @@ Scenes register by entry point (group ``es2particles.scenes``): another package 
 ``[project.entry-points."es2particles.scenes"] name = "package.module:SceneClass"``.
 """
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import GraphError, ParameterError
+from ..errors import CostWarning, GraphError, ParameterError
 from ..frame.settings import Defaults
 from ..render.points import Density
 from ..params import Params
+
+
+COST_FACTOR = 10  # a cost this many times the defaults' is said (Scene.warn_of_cost)
+# What a scene's cost() may name, and what a large one means.
+COSTS = {"sub-steps a step": "each step takes about that much longer",
+         "field cells": "the field takes about that much longer to make, and as much more memory"}
 
 
 @dataclass(frozen=True)
@@ -81,6 +88,9 @@ class Scene:
     # alone, so the frames of an animation can be made apart, each without the ones before it
     # (cluster/tasks.py); otherwise a frame needs every step and frame before it.
     stateless = False
+    # What a step costs that the parameters drive (sub-steps, field size) -> its value at the
+    # defaults (tests/test_inputs.py keeps these true); see cost() and warn_of_cost().
+    typical_cost = {}
 
     def __init__(self, params=None, **given):
         params = self.Params() if params is None else params
@@ -90,6 +100,23 @@ class Scene:
         if given:
             params = self.Params.from_mapping({**params.values(), **given}, self.name)
         self.params = params
+
+    def cost(self):
+        """What a step costs that this scene's parameters drive: name -> value, for each name of
+        :attr:`typical_cost`."""
+        return {}
+
+    def warn_of_cost(self, *names):
+        """A :class:`~es2particles.errors.CostWarning` for each cost ``names`` (default: all)
+        :data:`COST_FACTOR` times or more its value at the defaults (a subclass calls it as soon
+        as it knows a cost, before the work the cost is of)."""
+        for what, value in self.cost().items():
+            if names and what not in names:
+                continue
+            typical = self.typical_cost[what]
+            if value >= COST_FACTOR * typical:
+                warnings.warn(f"{value:,} {what}: {value / typical:.0f}x the {typical:,} at "
+                              f"this scene's defaults ({COSTS[what]})", CostWarning, stacklevel=3)
 
     # -- declarations ----------------------------------------------------------------------
 

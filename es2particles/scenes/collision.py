@@ -33,6 +33,7 @@ RECT = (-1.0, -1.0, 1.0, 1.0)
 # The most sub-steps a particle's step may take: a loop bound compiled into the shader (ES 1.00
 # loops need a constant one). A scene whose particles could need more is refused.
 SUBSTEP_LIMIT = 4096
+SUBSTEPS, FIELD_CELLS = "sub-steps a step", "field cells"  # costs named in base.COSTS
 
 
 @dataclass(frozen=True)
@@ -160,6 +161,11 @@ class Collision(Scene):
     render_reads = ("position", "life")  # life: fade with age; unborn and dead are not drawn
 
     Params = CollisionParams
+    typical_cost = {FIELD_CELLS: 256 ** 2, SUBSTEPS: 49}
+
+    def cost(self):
+        return {FIELD_CELLS: self.params.field_resolution ** 2,
+                SUBSTEPS: getattr(self, "max_substeps", 0)}
 
     def __init__(self, params=None, field=None, **given):
         """``field``: a :class:`~es2particles.fields.field2d.CollisionField` made already, in
@@ -168,12 +174,14 @@ class Collision(Scene):
         p = self.params
         if field is None:
             # Refuse what the sub-steps cannot honour before the (costly) field is made.
+            self.warn_of_cost(FIELD_CELLS)
             resolution = (p.field_resolution, p.field_resolution)
             p.check_substeps(cell_size(RECT, resolution))
             shapes, mask = parse_shape(p.shape, RECT)
             field = CollisionField(RECT, shapes, mask, resolution)
         self.field = field
         self.max_substeps = p.check_substeps(field.cell)
+        self.warn_of_cost(SUBSTEPS)
         # Steady from the first frame: run one longest lifetime before it (see start). 2^17
         # particles: the sub-stepped passes cost ~20x de Jong's per particle. Dithered rounding:
         # a slow particle's sub-code moves are kept on average.

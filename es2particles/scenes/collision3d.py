@@ -26,6 +26,7 @@ from .emitter import Emitter, EmitterParams, blend, eye, lifetimes, sprite, targ
 FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
 HEIGHT = 7.0  # y in [-1, 7]: 8 units, the floor y = 0 a code of the 16-bit grid (see fountain.py)
 SUBSTEP_LIMIT = 4096
+SUBSTEPS, FIELD_CELLS = "sub-steps a step", "field cells"  # costs named in base.COSTS
 DEFAULT_SHAPE = "sphere:0,1,0,1"
 # Uncompressed field formats and their encodings (field3d.py); and astcWxH (see astc.BLOCKS).
 # rgba8-smooth, the 8-bit distance of the compressed fields left uncompressed, tells the two
@@ -158,7 +159,7 @@ def parse_field_format(text):
     match = re.fullmatch(r"astc(\d+)x(\d+)", str(text))
     if match and (int(match[1]), int(match[2])) in BLOCKS:
         return int(match[1]), int(match[2])
-    raise ParameterError(f"field format must be one of {FIELD_FORMATS} or astcWxH with a block "
+    raise ParameterError(f"--field-format must be one of {FIELD_FORMATS} or astcWxH with a block "
                          f"of {', '.join(f'{w}x{h}' for w, h in BLOCKS)}; got {text!r}")
 
 
@@ -174,6 +175,8 @@ class Collision3D(Emitter):
         p = self.params
         self.block = parse_field_format(p.field_format)
         self.field_format = p.field_format
+        if field is None:
+            self.warn_of_cost(FIELD_CELLS)
         self.field = field if field is not None else VoxelField(parse_shapes(p.shape),
                                                                 p.field_resolution)
         f = self.field
@@ -201,6 +204,13 @@ class Collision3D(Emitter):
                 f"dt {p.dt:g} at max speed {p.max_speed:g} (and the object's motion) with voxels "
                 f"of {f.voxel * p.scale:.3g} needs {self.max_substeps} sub-steps of half a voxel; "
                 f"at most {SUBSTEP_LIMIT}: lower --dt or --field-resolution")
+        self.warn_of_cost(SUBSTEPS)
+
+    typical_cost = {FIELD_CELLS: 64 ** 3, SUBSTEPS: 20}
+
+    def cost(self):
+        return {FIELD_CELLS: self.params.field_resolution ** 3,
+                SUBSTEPS: getattr(self, "max_substeps", 0)}
 
     @property
     def moves(self):

@@ -513,8 +513,8 @@ def _run(args):
     from .frame.settings import MAX_SIZE, parse_size
     from .gl.egl import open_context
     from .io.images import check_input
-    from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, check_output,
-                            check_video, save_image)
+    from .io.output import (ANIMATION_SUFFIXES, IMAGE_SUFFIXES, AnimationWriter, OutputGroup,
+                            check_output, check_video, save_image)
     from .io.progress import progress
     from .run import write_run
 
@@ -538,51 +538,57 @@ def _run(args):
     if frames > 1:  # before any work: the video extra, even sides
         check_video(out, parse_size(run.settings.get("size", (1024, 1024)), MAX_SIZE))
     sizes = shares.share_sizes(run, save_state=args.save_state is not None)
+    # The run's files land together or not at all (an interrupt leaves none of them, and any
+    # earlier ones at those paths as they were); the picture last, as the sign of a finished run.
+    outputs = OutputGroup(state_path, config_path, out)
     if args.workers is not None or args.scheduler is not None:
         if load_path is not None:
             raise ParameterError("--load-state resumes one process's run: leave out --workers "
                                  "and --scheduler to load it")
-        where = _run_on_cluster(args, run, out, sizes)
-        if config_path is not None:
-            write_run(run, scene, config_path)
+        with outputs:
+            where = _run_on_cluster(args, run, out, sizes)
+            if config_path is not None:
+                write_run(run, scene, config_path)
         print(f"wrote {out} ({args.size or 'default size'}, {frames} frame(s)"
               + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
               + f") in {time.perf_counter() - start:.2f} s {where}")
         return
-    with open_context() as ctx:
+    with open_context() as ctx, outputs:
         if sizes is not None:
             save_image(shares.still(ctx, run, sizes), out)
-            print(f"wrote {out} ({args.size or 'default size'}, {args.particles} particles in "
-                  f"{len(sizes)} shares of at most {shares.SHARE}) in "
-                  f"{time.perf_counter() - start:.2f} s")
-            return
-        scene, pipeline = run.pipeline(ctx, scene)
-        with pipeline:
-            _note_sparse(pipeline)
-            if load_path is not None:
-                pipeline.load_state(load_path)
-            drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
-            if frames == 1:
-                next(drawn)
-                save_image(pipeline.image(), out)
-            else:
-                with AnimationWriter(out, run.fps) as writer:  # frames stream out: bounded memory
-                    for _ in progress(drawn, frames, "frames"):
-                        writer.add(pipeline.image())
-                    if out.suffix.lower() != ".mp4":  # the assembly takes a while: say so
-                        print(f"es2particles: assembling {frames} frames into {out}",
-                              file=sys.stderr)
-                    writer.close()
-            if state_path is not None:
-                pipeline.save_state(state_path)
             if config_path is not None:
                 write_run(run, scene, config_path)
-            has_density = "density" in pipeline.plan.resources
-            print(f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, {pipeline.sim.count} "
-                  f"particles, {pipeline.sim.steps_done} steps, {frames} frame(s)) in "
-                  f"{time.perf_counter() - start:.2f} s"
-                  + (f"; density target {pipeline.plan.resources['density'].format}"
-                     if has_density else ""))
+            said = (f"wrote {out} ({args.size or 'default size'}, {args.particles} particles in "
+                    f"{len(sizes)} shares of at most {shares.SHARE})")
+            density = ""
+        else:
+            scene, pipeline = run.pipeline(ctx, scene)
+            with pipeline:
+                _note_sparse(pipeline)
+                if load_path is not None:
+                    pipeline.load_state(load_path)
+                drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
+                if frames == 1:
+                    next(drawn)
+                    save_image(pipeline.image(), out)
+                else:
+                    with AnimationWriter(out, run.fps) as writer:  # frames stream out: bounded
+                        for _ in progress(drawn, frames, "frames"):
+                            writer.add(pipeline.image())
+                        if out.suffix.lower() != ".mp4":  # the assembly takes a while: say so
+                            print(f"es2particles: assembling {frames} frames into {out}",
+                                  file=sys.stderr)
+                        writer.close()
+                if state_path is not None:
+                    pipeline.save_state(state_path)
+                if config_path is not None:
+                    write_run(run, scene, config_path)
+                said = (f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, "
+                        f"{pipeline.sim.count} particles, {pipeline.sim.steps_done} steps, "
+                        f"{frames} frame(s))")
+                density = (f"; density target {pipeline.plan.resources['density'].format}"
+                           if "density" in pipeline.plan.resources else "")
+    print(f"{said} in {time.perf_counter() - start:.2f} s{density}")  # said once they landed
 
 
 def _run_on_cluster(args, run, out, sizes):

@@ -1,12 +1,16 @@
 """Outputs that are safe against concurrent runs and interruptions (issue #28): the start-up
-clean-up removes only temporaries whose owner is checked dead, and two runs to one output both
-finish with a whole file of one of them. Real processes throughout; no GL is mocked."""
+clean-up removes only temporaries whose owner is checked dead, two runs to one output both finish
+with a whole file of one of them, an interrupted report leaves nothing, and a run's picture,
+state and run file land together or not at all. Real processes throughout; no GL is mocked."""
 
+import json
 import os
+import signal
 import subprocess
 import sys
 import time
 
+import numpy as np
 import pytest
 from PIL import Image
 
@@ -139,3 +143,92 @@ def test_two_runs_to_one_output_both_finish_and_one_of_them_wins(tmp_path):
     assert frames in (150, 20)
     if first_running:  # the last to finish wins
         assert frames == 150
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("case", ["new folder, SIGTERM", "the user's folder, SIGINT"])
+def test_an_interrupted_report_leaves_nothing(tmp_path, case):
+    out = tmp_path / "new" / "report"
+    mine = tmp_path / "mine.txt"
+    if "user" in case:
+        out = tmp_path
+        mine.write_text("mine")
+    report = start("report", "--quick", "--out", str(out))
+    deadline = time.monotonic() + 60
+    while not out.is_dir():
+        assert report.poll() is None and time.monotonic() < deadline, finish(report)
+        time.sleep(0.02)
+    time.sleep(0.5)
+    report.send_signal(signal.SIGTERM if "SIGTERM" in case else signal.SIGINT)
+    status, err = finish(report)
+    assert status == 130 and err.endswith("es2particles: interrupted\n"), err
+    assert names(tmp_path) == (["mine.txt"] if "user" in case else [])
+
+
+def state_steps(path):
+    with np.load(path) as state:
+        return json.loads(str(state["meta"]))["steps_done"]
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_a_run_s_picture_state_and_run_file_land_together_or_not_at_all(tmp_path):
+    """SIGINT or SIGTERM at moments through a run with --save-state and --save-config: after
+    it, the picture, the state and the run file are all this run's, or all as they were before
+    (an earlier run's, or absent); the state loads and draws the picture."""
+    run = ["run", "dejong", "--particles", "65536", "--size", "256x256"]
+
+    def outputs(folder):
+        return ["--out", str(folder / "p.png"), "--save-state", str(folder / "s.npz"),
+                "--save-config", str(folder / "c.toml")]
+
+    # The files of an earlier run (3 steps) and of the whole run (7 steps), to compare with.
+    reference = {}
+    for steps in (3, 7):
+        folder = tmp_path / f"ref{steps}"
+        began = time.monotonic()
+        status, err = finish(start(*run, "--steps", str(steps), *outputs(folder)))
+        took = time.monotonic() - began
+        assert status == 0, err
+        reference[steps] = {name: (folder / name).read_bytes() for name in ("p.png", "c.toml")}
+    # The moments: halfway through the whole run's time (simulating), when each file's
+    # temporary appears (writing; the picture's is there until the renames), and about when
+    # it ends; each with and without an earlier run's files there, by SIGINT or SIGTERM.
+    moments = [0.5, ".p.png.", ".s.npz.", ".c.toml.", 1.0]
+    landed = tmp_path / "ref7"
+    for trial, (moment, earlier) in enumerate((m, e) for m in moments for e in (False, True)):
+        folder = tmp_path / f"trial{trial}"
+        if earlier:
+            status, err = finish(start(*run, "--steps", "3", *outputs(folder)))
+            assert status == 0, err
+        process = start(*run, "--steps", "7", *outputs(folder))
+        if isinstance(moment, str):
+            while process.poll() is None and not any(
+                    n.startswith(moment) and n.endswith(PART)
+                    for n in (os.listdir(folder) if folder.exists() else ())):
+                time.sleep(0.0005)
+        else:
+            time.sleep(took * moment)
+        process.send_signal(signal.SIGTERM if earlier else signal.SIGINT)
+        status, err = finish(process)
+        where = f"signal at {moment!r}, earlier files {earlier}: status {status}, {err!r}"
+        # 130: the command's interrupt; a negative status: the signal came before its handlers
+        assert status in (0, 130, -signal.SIGINT, -signal.SIGTERM), where
+        present = names(folder) if folder.exists() else []
+        if not present:
+            assert not earlier, f"{where}: the earlier run's files were removed"
+            continue
+        assert present == ["c.toml", "p.png", "s.npz"], f"{where}: {present}"
+        steps = state_steps(folder / "s.npz")
+        assert steps in ((3, 7) if earlier else (7,)), f"{where}: the state of {steps} steps"
+        for name, data in reference[steps].items():
+            assert (folder / name).read_bytes() == data, f"{where}: {name} is not the {steps} " \
+                                                         "steps run's, as the state is"
+        if steps == 7:
+            landed = folder
+    # A state that landed beside its picture (a trial's, or else the whole run's) loads and
+    # draws that picture.
+    status, err = finish(start(*run, "--steps", "0", "--load-state", str(landed / "s.npz"),
+                               "--out", str(tmp_path / "drawn.png")))
+    assert status == 0, err
+    assert (tmp_path / "drawn.png").read_bytes() == (landed / "p.png").read_bytes()

@@ -15,9 +15,15 @@ alone: a user's ``.o.png.backup.part`` is never touched, nor a live run's tempor
 
 Two runs to one output: each writes under its own temporary names, and the last to finish wins.
 The final rename is atomic, so the output is always a whole file of one run, never a mixture.
+The files of one run that must agree (the picture or video, its ``--save-state`` file and its
+``--save-config`` file; the report's REPORT.md and charts) form an :class:`OutputGroup`: they are
+written to temporaries, then renamed together, with SIGINT and SIGTERM held back and the folders
+locked (``flock``) across the renames, so two runs' renames do not interleave. Either every file
+of the group lands, or none does.
 """
 
 import contextlib
+import contextvars
 import functools
 import hashlib
 import os
@@ -266,6 +272,7 @@ class AnimationWriter:
         except BaseException:
             self.abort()
             raise
+        OutputGroup.adopt_folders(self.made)
 
     def add(self, frame):
         frame = np.ascontiguousarray(frame, dtype=np.uint8)
@@ -341,8 +348,10 @@ class AnimationWriter:
 
 def write_atomic(path, write):
     """Run ``write(temporary_path)`` and rename the result onto ``path``; clean up on failure.
-    Missing folders on the way are made first (and removed again on failure, where empty)."""
+    Missing folders on the way are made first (and removed again on failure, where empty).
+    Inside an :class:`OutputGroup` that holds ``path``, the rename waits for the group's."""
     path = Path(path)
+    group = OutputGroup.holding(path)
     remove_leftovers(path)
     tmp, made = None, []
     try:
@@ -351,13 +360,106 @@ def write_atomic(path, write):
             os.close(fd)
         write(tmp)
         os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file the usual mode
-        os.replace(tmp, path)
+        if group is not None:
+            group.stage(tmp, path, made)
+        else:
+            os.replace(tmp, path)
     except BaseException:
         if tmp is not None and os.path.exists(tmp):
             os.remove(tmp)
         remove_made_folders(made)
         raise
     return path
+
+
+class OutputGroup:
+    """Files that land together or not at all: inside ``with OutputGroup(a, b, c):``, each
+    :func:`write_atomic` (and so :func:`save_image`, :func:`save_arrays`, an
+    :class:`AnimationWriter`'s result) to one of ``files``, or with ``folder`` to any file
+    directly in that folder, writes its temporary and stops there. When the block ends without
+    an exception the temporaries are renamed onto their paths, those written in ``folder``
+    first, then ``files`` in the order given: put last the file whose arrival says the work is
+    done (a run's picture, the report's REPORT.md): a SIGKILL between two renames, which nothing
+    holds back, leaves that file as it was, so the work shows as not done. SIGINT and SIGTERM
+    are held back across the renames (and delivered after them), and each folder is locked
+    (``flock``) so that two runs' renames do not interleave: the last run to finish wins with
+    all of its files. When the block ends with an exception, or an interrupt, the temporaries
+    are removed, and the folders made for them where empty. A path of ``files`` may be None (not
+    asked for)."""
+
+    _active = contextvars.ContextVar("es2particles_output_group", default=None)
+
+    def __init__(self, *files, folder=None):
+        self.files = [os.path.abspath(f) for f in files if f is not None]
+        self.folder = None if folder is None else os.path.abspath(folder)
+        self.staged = {}  # absolute path -> its temporary, in the order written
+        self.made = []  # folders made for the group's files, outermost first
+        self._token = None
+
+    @classmethod
+    def holding(cls, path):
+        """The group of this context that holds ``path``, or None."""
+        group = cls._active.get()
+        if group is None:
+            return None
+        path = os.path.abspath(path)
+        if path in group.files or (group.folder is not None
+                                   and os.path.dirname(path) == group.folder):
+            return group
+        return None
+
+    @classmethod
+    def adopt_folders(cls, made):
+        """Folders made by a writer inside the group: removed with its temporaries if it is
+        given up."""
+        group = cls._active.get()
+        if group is not None:
+            group.made += made
+
+    def stage(self, tmp, path, made=()):
+        path = os.path.abspath(path)
+        earlier = self.staged.pop(path, None)
+        if earlier is not None:  # written twice: the later one stands
+            with contextlib.suppress(FileNotFoundError):
+                os.remove(earlier)
+        self.staged[path] = tmp
+        self.made += made
+
+    def __enter__(self):
+        if self._active.get() is not None:
+            raise RuntimeError("an OutputGroup is already open in this context")
+        self._token = self._active.set(self)
+        return self
+
+    def __exit__(self, kind, value, traceback):
+        self._active.reset(self._token)
+        if kind is None:
+            self.commit()
+        else:
+            self.abort()
+
+    def commit(self):
+        """Rename every staged temporary onto its path (see the class's docstring)."""
+        order = ([p for p in self.staged if p not in self.files]
+                 + [p for p in self.files if p in self.staged])
+        try:
+            # The locks first: waiting for another run's renames can still be interrupted.
+            with folders_locked({os.path.dirname(p) for p in order}), signals_deferred():
+                for path in order:
+                    os.replace(self.staged[path], path)
+                    del self.staged[path]
+        except BaseException:
+            self.abort()
+            raise
+
+    def abort(self):
+        """Remove the staged temporaries, and the folders made for them where empty."""
+        with signals_deferred():
+            for tmp in self.staged.values():
+                with contextlib.suppress(FileNotFoundError):
+                    os.remove(tmp)
+            self.staged = {}
+            remove_made_folders(self.made)
 
 
 @contextlib.contextmanager
@@ -387,6 +489,38 @@ def signals_deferred():
             signal.signal(number, handler)
         for number in dict.fromkeys(caught):
             signal.raise_signal(number)
+
+
+@contextlib.contextmanager
+def folders_locked(folders):
+    """An exclusive ``flock`` on each folder, taken in one order (so two runs never wait for
+    each other in a circle) and released when the block ends. Where a folder cannot be locked
+    (no ``fcntl``, a file system without locks) it goes on without."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    opened = {}  # (device, inode) -> descriptor: one folder by two names is locked once
+    try:
+        for folder in set(folders):
+            try:
+                fd = os.open(folder or ".", os.O_RDONLY)
+            except OSError:
+                continue
+            identity = os.fstat(fd)
+            key = (identity.st_dev, identity.st_ino)
+            if key in opened:
+                os.close(fd)
+            else:
+                opened[key] = fd
+        for key in sorted(opened):
+            with contextlib.suppress(OSError):
+                fcntl.flock(opened[key], fcntl.LOCK_EX)
+        yield
+    finally:
+        for fd in opened.values():
+            os.close(fd)  # closing releases the lock
 
 
 def _umask():

@@ -15,7 +15,8 @@ import numpy as np
 from . import charts
 from . import measure
 from . import stability
-from ..io.output import write_atomic
+from ..io.output import (OutputGroup, make_folders, remove_made_folders, signals_deferred,
+                         write_atomic)
 from ..io.progress import progress
 
 QUICK = {"dejong_n": (10, 14, 16), "collision_n": (10, 12), "dt_k": range(4, 11),
@@ -31,10 +32,25 @@ def _series(fmt, rounding):
 
 
 def run(ctx, out, quick=True):
-    """Run the sweeps and the suite; write REPORT.md and charts into ``out``; return its path."""
-    settings = QUICK if quick else FULL
+    """Run the sweeps and the suite; write REPORT.md and charts into ``out``; return its path.
+
+    The folder is made at once (with any missing parents); the files land together at the end,
+    REPORT.md last. Interrupted or failing, the report leaves nothing: no file of its own, and
+    the folders it made are removed where empty (a folder that was there keeps what it held)."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    made = []
+    try:
+        with signals_deferred():  # an interrupt comes once made names the folders
+            made = make_folders(out)
+        with OutputGroup(out / "REPORT.md", folder=out):
+            return _sweep_and_write(ctx, out, quick)
+    except BaseException:
+        remove_made_folders(made)
+        raise
+
+
+def _sweep_and_write(ctx, out, quick):
+    settings = QUICK if quick else FULL
     configs = [(f, r) for f, r in STATE_CONFIGS if ctx.caps.renderable.get(f)]
     jobs = ([("dejong", f, r, 2 ** n) for f, r in configs for n in settings["dejong_n"]]
             + [("collision", f, r, 2 ** n) for f, r in configs for n in settings["collision_n"]]

@@ -215,17 +215,6 @@ def test_a_report_onto_a_folder_named_report_md_is_refused(tmp_path, capsys):
 
 
 @pytest.mark.gl
-def test_a_later_run_removes_what_a_killed_one_left(tmp_path):
-    (tmp_path / ".x.png.abc123.part").write_bytes(b"half")
-    (tmp_path / ".a.webp.xyz.frames").mkdir()
-    (tmp_path / ".a.webp.xyz.frames" / "000000.png").write_bytes(b"frame")
-    assert main(["run", "dejong", *SMALL, "--out", str(tmp_path / "x.png")]) == 0
-    assert main(["run", "dejong", *SMALL, "--frames", "2", "--animate-to", "1.5,-2.3,2.4,-2.1",
-                 "--out", str(tmp_path / "a.webp")]) == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.webp", "x.png"]
-
-
-@pytest.mark.gl
 def test_an_output_that_is_a_symlink_is_replaced_not_written_through(tmp_path):
     victim = tmp_path / "victim.txt"
     victim.write_text("keep me")

@@ -174,9 +174,9 @@ class Collision(Scene):
         p = self.params
         if field is None:
             # Refuse what the sub-steps cannot honour before the (costly) field is made.
-            self.warn_of_cost(FIELD_CELLS)
             resolution = (p.field_resolution, p.field_resolution)
             p.check_substeps(cell_size(RECT, resolution))
+            self.warn_of_cost(FIELD_CELLS)
             shapes, mask = parse_shape(p.shape, RECT)
             field = CollisionField(RECT, shapes, mask, resolution)
         self.field = field

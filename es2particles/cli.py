@@ -355,6 +355,10 @@ def _add_run_options(parser, command):
     add("--scheduler", default=None,
         help="run on the Dask cluster of this scheduler address (tcp://host:8786), as "
              "--workers does")
+    add("--worker-timeout", default=None, metavar="SECONDS",
+        help="with --workers or --scheduler: end the run, in one line, when the cluster has "
+             "had no worker this long while tasks are left; an animation's frames made are "
+             "kept for the same command to resume. 1 to 86400 (default 60)")
 
 
 def with_config_scene(argv):
@@ -541,6 +545,9 @@ def _run(args):
     # The run's files land together or not at all (an interrupt leaves none of them, and any
     # earlier ones at those paths as they were); the picture last, as the sign of a finished run.
     outputs = OutputGroup(state_path, config_path, out)
+    if args.worker_timeout is not None and args.workers is None and args.scheduler is None:
+        raise ParameterError("--worker-timeout is for a run on a cluster: give --workers or "
+                             "--scheduler with it")
     if args.workers is not None or args.scheduler is not None:
         if load_path is not None:
             raise ParameterError("--load-state resumes one process's run: leave out --workers "
@@ -604,6 +611,11 @@ def _run_on_cluster(args, run, out, sizes):
     if args.workers is not None:
         workers = int(check_range("workers", _number(args.workers, "--workers"), 1, 1024,
                                   integer=True))
+    worker_timeout = tasks.WORKER_TIMEOUT
+    if args.worker_timeout is not None:
+        worker_timeout = check_range("--worker-timeout",
+                                     _number(args.worker_timeout, "--worker-timeout"), 1,
+                                     tasks.MAX_WORKER_TIMEOUT)
     if args.save_state is not None:
         raise ParameterError("--save-state writes one process's state: leave out --workers and "
                              "--scheduler to save it")
@@ -614,9 +626,9 @@ def _run_on_cluster(args, run, out, sizes):
     try:
         count = tasks.workers(client)
         if run.frames == 1:
-            tasks.still(client, run, out, sizes)
+            tasks.still(client, run, out, sizes, worker_timeout)
         else:
-            tasks.animation(client, run, out)
+            tasks.animation(client, run, out, worker_timeout)
     finally:
         tasks.close(client)
     return (f"on {count} local worker(s)" if args.scheduler is None

@@ -21,6 +21,7 @@ is current in one thread.
   and removes it.
 """
 
+import asyncio
 import json
 import os
 import shutil
@@ -31,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import Es2ParticlesError, ParameterError
 
 _local = threading.local()
 GROUPS_PER_WORKER = 4  # tasks a worker (share groups, runs of frames): the load evens out, and
@@ -97,24 +98,166 @@ def frames_task(run, wanted):
 
 # -- on the client -----------------------------------------------------------------------------
 
+HOST_PORT_SCHEMES = ("tcp", "tls", "ws", "wss")  # Dask's schemes whose addresses are host:port
+HANDSHAKE_MARGIN = 5.0  # s past Dask's connect timeout for the handshake (see ask_identity)
+WORKER_TIMEOUT = 60.0  # s a cluster may have no worker while tasks wait (--worker-timeout)
+MAX_WORKER_TIMEOUT = 86400  # s: a day
+WATCH = 0.5  # s between looks at the cluster's workers while no task finishes
+
+
+class ClusterError(Es2ParticlesError):
+    """The cluster stopped serving the run: it had no worker for --worker-timeout seconds, or
+    workers kept dying on a task."""
+
+
 def connect(workers=None, scheduler=None):
     """A Dask client: of a new LocalCluster of ``workers`` single-thread processes, or of the
-    scheduler at address ``scheduler``. The caller closes it (and the LocalCluster with it)."""
+    scheduler at address ``scheduler`` (``join``). The caller closes it (and the LocalCluster
+    with it)."""
     import logging
 
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        try:
-            return Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError, ValueError) as error:
-            raise ParameterError(f"--scheduler {scheduler!r}: no Dask scheduler answered "
-                                 f"({error})") from None
+        return join(scheduler)
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                            dashboard_address=None, silence_logs=logging.ERROR)
     client = Client(cluster)
     client.cluster_to_close = cluster
     return client
+
+
+def join(address):
+    """A client of the running scheduler at ``address``. The address is checked first
+    (``check_address``), then whatever answers there is asked who it is (``ask_identity``),
+    within Dask's connect timeout (``distributed.comm.timeouts.connect``: 30 s unless configured);
+    whatever stops it is a ParameterError naming the address and what happened."""
+    import dask
+    from dask.utils import parse_timedelta
+    from distributed import Client
+    from distributed.security import Security
+
+    timeout = parse_timedelta(dask.config.get("distributed.comm.timeouts.connect"), "s")
+    security = Security()  # Dask's configuration: the certificates tls:// needs
+    scheme = check_address(address)
+    try:
+        connection = security.get_connection_args("client")
+    except OSError as error:  # a certificate file named there is missing or unreadable
+        raise _refused(address, f"Dask's TLS configuration cannot be read ({error})") from None
+    if scheme == "tls" and connection["ssl_context"] is None:
+        raise _refused(address, "tls:// needs the client's certificates in Dask's configuration: "
+                                "distributed.comm.tls.ca-file, distributed.comm.tls.client.cert "
+                                "and distributed.comm.tls.client.key (or the variables "
+                                "DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ...)")
+    ask_identity(address, connection, timeout)
+    try:
+        return Client(address, timeout=timeout, security=security)
+    except (OSError, TimeoutError, ValueError, TypeError) as error:  # gone since it answered
+        raise _refused(address, f"the scheduler answered, then Dask could not connect"
+                                f"{_because(error)}") from None
+
+
+def _refused(address, why):
+    return ParameterError(f"--scheduler {address!r}: {why}")
+
+
+def check_address(address):
+    """The scheme of scheduler address ``address``, once it is one Dask can try: a known scheme
+    whose connections Dask can make here, and for tcp, tls, ws and wss a host that resolves and a
+    port in 1..65535. Else a ParameterError saying what is wrong, before any waiting."""
+    import socket
+
+    from distributed.comm import parse_address, parse_host_port
+    from distributed.comm.registry import backends, get_backend
+
+    if not address.strip():
+        raise _refused(address, "no address: give the scheduler's, e.g. tcp://host:8786")
+    scheme, location = parse_address(address)  # no scheme: tcp, as Dask reads it
+    try:
+        backend = get_backend(scheme)
+    except ValueError:
+        raise _refused(address, f"unknown scheme {scheme!r}: Dask knows "
+                                f"{', '.join(s + '://' for s in sorted(backends))}") from None
+    if scheme == "inproc":
+        raise _refused(address, "inproc:// reaches a scheduler in the same process only: give "
+                                "the scheduler's tcp:// address")
+    try:
+        backend.get_connector()
+    except (TypeError, ImportError) as error:  # a backend without its package (ucx)
+        hint = (": Dask's ucx:// needs the distributed-ucxx package" if scheme == "ucx" else "")
+        raise _refused(address, f"Dask cannot make {scheme}:// connections here"
+                                f"{_because(error)}{hint}") from None
+    if scheme not in HOST_PORT_SCHEMES:
+        return scheme
+    try:
+        host, port = parse_host_port(location)
+    except ValueError as error:
+        raise _refused(address, f"not host:port ({error})") from None
+    if not 1 <= port <= 65535:
+        raise _refused(address, f"port {port} is out of range: a port is 1 to 65535")
+    if not host:
+        raise _refused(address, "no host: give the scheduler's, e.g. tcp://host:8786")
+    try:
+        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except (socket.gaierror, UnicodeError) as error:
+        raise _refused(address, f"host {host!r} is not known{_because(error)}") from None
+    return scheme
+
+
+def ask_identity(address, connection, timeout):
+    """Connect to ``address`` and ask what answers there who it is; a ParameterError saying what
+    happened unless it is a Dask scheduler. ``connection``: Dask's connection arguments (TLS);
+    ``timeout``: Dask's connect timeout, s."""
+    from distributed.comm import connect
+    from distributed.comm.core import CommClosedError
+    from tornado.websocket import WebSocketError
+
+    async def identity():
+        comm = await connect(address, timeout=timeout, **connection)
+        try:
+            await comm.write({"op": "identity", "reply": True})
+            return await comm.read()
+        finally:
+            comm.abort()
+
+    # Dask's connect retries for ``timeout`` and then says why; its handshake has no limit of its
+    # own (an HTTP server takes the connection and waits for a request line forever): the margin
+    # bounds that alone.
+    limit = timeout + HANDSHAKE_MARGIN
+    not_dask = ("not a Dask scheduler (a scheduler listens on 8786 unless told otherwise; 8787 "
+                "is its dashboard's web page)")
+    try:
+        answer = asyncio.run(asyncio.wait_for(identity(), limit))
+    except (asyncio.TimeoutError, TimeoutError):
+        raise _refused(address, f"it took the connection but gave no Dask handshake in "
+                                f"{limit:g} s: {not_dask}") from None
+    except CommClosedError as error:  # connected, then closed at the handshake
+        raise _refused(address, f"it closed the connection at Dask's handshake"
+                                f"{_because(error)}: {not_dask}") from None
+    except OSError as error:
+        raise _refused(address, f"no Dask scheduler answered in {timeout:g} s"
+                                f"{_because(error)}") from None
+    except WebSocketError as error:
+        raise _refused(address, f"no Dask websocket there{_because(error)}: {not_dask}") from None
+    except (ValueError, TypeError, ImportError) as error:
+        raise _refused(address, f"Dask could not connect{_because(error)}") from None
+    kind = answer.get("type") if isinstance(answer, dict) else None
+    if kind in ("Worker", "Nanny"):
+        raise _refused(address, f"that is a Dask {kind.lower()}, not the scheduler: give the "
+                                "address the scheduler prints at its start")
+    if not isinstance(answer, dict):
+        raise _refused(address, f"it answered, but not as a Dask scheduler: {not_dask}")
+
+
+def _because(error):
+    """What stopped a connection, in the words of its innermost cause: ' (Connection refused)';
+    '' where the last try ran out of time."""
+    while error.__cause__ is not None and not isinstance(error.__cause__, asyncio.CancelledError):
+        error = error.__cause__
+    if isinstance(error, (TimeoutError, asyncio.TimeoutError)):
+        return ""
+    text = error.strerror if isinstance(error, OSError) and error.strerror else str(error)
+    return f" ({' '.join(text.split()) or type(error).__name__})"
 
 
 def close(client):
@@ -128,28 +271,77 @@ def workers(client):
     return max(1, len(client.scheduler_info()["workers"]))
 
 
-def still(client, run, out, sizes):
+def finished(client, futures, what, kept, worker_timeout=WORKER_TIMEOUT):
+    """Yield each of ``futures`` (``what`` they are: "frame tasks") as it finishes, watching the
+    cluster while none does. Where it has had no worker for ``worker_timeout`` s while some are
+    left (its last worker died, or none ever came), or workers kept dying on one of them, raise a
+    ClusterError saying so and what was kept (``kept()``, a sentence)."""
+    import time
+
+    from distributed import KilledWorker, TimeoutError, wait
+
+    left = list(futures)
+    alone_since = None  # when the cluster was first seen with no worker
+    while left:
+        try:
+            done, left = wait(left, timeout=WATCH, return_when="FIRST_COMPLETED")
+        except TimeoutError:
+            done = ()
+        for future in done:
+            if future.status == "error" and isinstance(future.exception(), KilledWorker):
+                raise ClusterError(f"workers kept dying on one of the {what} (Dask gave it up "
+                                   f"after distributed.scheduler.allowed-failures deaths; their "
+                                   f"logs say why); {kept()}")
+            yield future
+        if done or not left:
+            alone_since = None
+            continue
+        if client.nthreads():
+            alone_since = None
+        elif alone_since is None:
+            alone_since = time.monotonic()
+        elif time.monotonic() - alone_since >= worker_timeout:
+            raise ClusterError(f"no worker on the cluster at {client.scheduler.address} for "
+                               f"{worker_timeout:g} s (--worker-timeout) with {len(left)} of "
+                               f"{len(futures)} {what} left; {kept()}")
+
+
+def still(client, run, out, sizes, worker_timeout=WORKER_TIMEOUT):
     """Write the still of ``run`` to ``out`` from the cluster; ``sizes``: its shares'
-    particles (``shares.share_sizes``), None for one pipeline."""
-    from distributed import as_completed
+    particles (``shares.share_sizes``), None for one pipeline. ``worker_timeout``: see
+    ``finished``."""
+    from distributed import TimeoutError
 
     from ..io.output import write_atomic
     from ..io.progress import progress
 
+    def result(future, what):
+        return next(finished(client, [future], what, nothing, worker_timeout)).result()
+
+    def nothing():
+        return f"nothing was written to {out}"
+
     if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
-        data = client.submit(frames_task, run, [0], pure=False).result()[0]
+        data = result(client.submit(frames_task, run, [0], pure=False), "still's task")[0]
     else:
         groups = np.array_split(np.arange(len(sizes)),
                                 min(len(sizes), GROUPS_PER_WORKER * workers(client)))
         futures = [client.submit(shares_task, run, sizes, group.tolist(), pure=False)
                    for group in groups]
         total = None
-        for future in progress(as_completed(futures), len(futures), "share groups", unit="task"):
+        done = finished(client, futures, "share groups", nothing, worker_timeout)
+        for future in progress(done, len(futures), "share groups", unit="task"):
             counts = future.result()
             total = counts if total is None else total + counts  # exact: whole numbers < 2^53
             future.release()
-        data = client.submit(tone_map_task, run, client.scatter(total), sum(sizes),
-                             pure=False).result()
+        try:  # scatter waits for a worker to hold the sum
+            total = client.scatter(total, timeout=worker_timeout)
+        except TimeoutError:
+            raise ClusterError(f"no worker on the cluster at {client.scheduler.address} for "
+                               f"{worker_timeout:g} s (--worker-timeout) to take the summed "
+                               f"shares; {nothing()}") from None
+        data = result(client.submit(tone_map_task, run, total, sum(sizes), pure=False),
+                      "tone-map task")
     return write_atomic(out, lambda tmp: Path(tmp).write_bytes(data))
 
 
@@ -163,10 +355,10 @@ def manifest(run):
     return json.loads(json.dumps(described, default=str))  # as it reads back from the file
 
 
-def animation(client, run, out):
+def animation(client, run, out, worker_timeout=WORKER_TIMEOUT):
     """Make the frames of ``run`` on the cluster (those not already in ``OUT.frames/``), then
-    assemble them into ``out`` and remove the folder."""
-    from distributed import as_completed
+    assemble them into ``out`` and remove the folder. ``worker_timeout``: see ``finished``; the
+    frames made stay in the folder for the next run of the same command."""
     from PIL import Image
 
     from ..io.output import AnimationWriter, check_folder, write_atomic
@@ -198,8 +390,14 @@ def animation(client, run, out):
         parts = GROUPS_PER_WORKER * workers(client) if scene.stateless else workers(client)
         parts = [r.tolist() for r in np.array_split(missing, min(len(missing), parts))]
         futures = [client.submit(frames_task, run, part, pure=False) for part in parts]
-        done = progress(as_completed(futures), len(futures), "frame tasks", unit="task")
-        for future in done:
+
+        def kept():
+            made = sum(p.is_file() for p in path)
+            return (f"{made} of {frames} frames are kept in {folder}: the same command again "
+                    "makes only the others")
+
+        done = finished(client, futures, "frame tasks", kept, worker_timeout)
+        for future in progress(done, len(futures), "frame tasks", unit="task"):
             for frame, data in future.result().items():
                 write_atomic(path[frame], lambda tmp, data=data: Path(tmp).write_bytes(data))
             future.release()

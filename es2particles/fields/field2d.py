@@ -16,7 +16,6 @@ normals; a mask's come from the gradient of its distance transform, computed onc
 
 from dataclasses import dataclass
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 
@@ -312,8 +311,9 @@ def parse_shape(spec, rect):
                            0.025 * size),
     }
     if spec.lower().endswith(".png"):
-        if not Path(spec).is_file():
-            raise ParameterError(f"shape mask {spec!r} does not exist")
+        from ..io.images import check_input
+
+        check_input(spec, "shape mask")  # a folder or a FIFO named here is not opened
         return [], spec
     shapes = []
     for name in spec.split("+"):

@@ -12,14 +12,27 @@ from ..errors import ParameterError
 MAX_PIXELS = 2 ** 26  # 8192 x 8192: far more than a ramp, a mask or a sprite needs
 
 
+def file_fault(path):
+    """What keeps ``path`` from being read as a file ("does not exist", "is a folder, not a
+    file", "is not a plain file" for a FIFO, a socket or a device), or None for a plain file.
+    Only its status is looked at: nothing is opened, so a FIFO is not waited on."""
+    file = Path(path)
+    if file.is_file():
+        return None
+    if file.is_dir():
+        return "is a folder, not a file"
+    if file.exists():
+        return "is not a plain file (a FIFO, a socket or a device)"
+    return "does not exist"
+
+
 def check_input(path, parameter):
     """``path`` as a Path if it is a plain file to read, else one line naming ``parameter``
-    (a folder or a FIFO is not waited on)."""
-    file = Path(path)
-    if not file.is_file():
-        what = "does not exist" if not file.exists() else "is not a plain file"
-        raise ParameterError(f"{parameter}: {str(path)!r} {what}")
-    return file
+    (see :func:`file_fault`)."""
+    fault = file_fault(path)
+    if fault:
+        raise ParameterError(f"{parameter}: {str(path)!r} {fault}")
+    return Path(path)
 
 
 def read_image(path, parameter, mode="RGBA", max_pixels=MAX_PIXELS):

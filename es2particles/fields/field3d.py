@@ -25,9 +25,11 @@ Shapes are analytic (sphere, box, capsule, torus, their unions; exact distance a
 voxel centre) or triangle meshes (OBJ, STL, PLY through trimesh, the ``mesh`` extra): a mesh is
 made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh; an
 open shell grown by a voxel across its faces), then an exact Euclidean distance transform (scipy)
-gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces.
+gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces. A
+mesh file is checked before it is used (:func:`load_mesh`).
 """
 
+import re
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -134,7 +136,8 @@ SHAPES = {"sphere": (Sphere, "CX,CY,CZ,R"), "box": (Box, "CX,CY,CZ,HX,HY,HZ"),
 
 @dataclass(frozen=True, eq=False)
 class TriangleMesh:
-    """An indexed triangle mesh in world units (loaded by :func:`load_mesh`)."""
+    """An indexed triangle mesh in world units (loaded by :func:`load_mesh`); ``name`` is the
+    file as the user named it."""
 
     vertices: np.ndarray
     faces: np.ndarray
@@ -167,32 +170,110 @@ class TriangleMesh:
         return f"TriangleMesh({self.name!r}, {len(self.faces)} triangles)"
 
 
+# Coordinates a mesh file may hold: trimesh merges vertices on a grid of tol.merge = 1e-8 held in
+# int64, which overflows beyond 2^63 * 1e-8 = 9.2e10 (numpy's 'invalid value encountered in cast').
+MAX_COORDINATE = 1e10
+
+
 def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
     """A mesh file (OBJ, STL, PLY, ...) scaled so that its longest side is ``size`` and moved so
-    that its bounding box's centre is ``centre``."""
+    that its bounding box's centre is ``centre``.
+
+    The file is checked before it is used, each fault one :class:`ParameterError` naming it: a
+    folder or a FIFO (never opened), a file trimesh cannot read as a mesh, vertices that are not
+    finite numbers or beyond +-MAX_COORDINATE, face indices beyond its vertices, no triangles,
+    and a mesh flat to a point or a line. The checks look at the file's data as read, before
+    trimesh's processing (which drops the faces at a nan vertex and merges vertices)."""
     try:
         import scipy  # noqa: F401
         import trimesh
     except ImportError:
         raise ParameterError("mesh shapes need trimesh and scipy: pip install "
                              "'es2particles[mesh]'") from None
-    path = Path(path)
-    if not path.is_file():
-        raise ParameterError(f"mesh file {str(path)!r} does not exist")
-    try:
-        mesh = trimesh.load(path, force="mesh")
-    except Exception as exc:  # trimesh raises many kinds for unreadable files
-        raise ParameterError(f"mesh file {str(path)!r} could not be read: {exc}") from None
-    if len(mesh.faces) == 0:
-        raise ParameterError(f"mesh file {str(path)!r} has no triangles")
+    from ..io.images import file_fault
+
     check_range("mesh size", size, 1e-3, 1e3)
+    named = f"mesh file {str(path)!r}"
+    fault = file_fault(path)
+    if fault:
+        raise ParameterError(f"{named} {fault}")
+    scene = _read_mesh_scene(Path(path), named)
+    parts = [g for g in scene.geometry.values() if isinstance(g, trimesh.Trimesh)]
+    for part in scene.geometry.values():
+        _check_raw_mesh(part, named)
+    if not any(len(part.faces) for part in parts):
+        points = sum(len(g.vertices) for g in scene.geometry.values())
+        raise ParameterError(f"{named} has {points} vertices but no triangles (faces)" if points
+                             else f"{named} could not be read as a mesh: trimesh found no "
+                             "vertices or triangles in it")
+    for part in parts:
+        part.process()  # as trimesh.load does: merged vertices, so that closed reads as closed
+    mesh = scene.to_mesh()
     v = np.asarray(mesh.vertices, float)
     lo, hi = v.min(axis=0), v.max(axis=0)
     extent = float((hi - lo).max())
     if not extent > 0:
-        raise ParameterError(f"mesh file {str(path)!r} is flat to a point")
+        raise ParameterError(f"{named} is flat to a point: all its vertices are one")
     v = (v - (lo + hi) / 2) * (size / extent) + np.asarray(centre, float)
-    return TriangleMesh(v, np.asarray(mesh.faces, np.int64), path.name, bool(mesh.is_watertight))
+    faces = np.asarray(mesh.faces, np.int64)
+    corners = v[faces]
+    area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                   corners[:, 2] - corners[:, 0]), axis=-1) / 2
+    if not np.any(area > 1e-12 * size ** 2):  # float64 leaves ~1e-16 of a flat one
+        spread = np.linalg.svd(v - v.mean(axis=0), compute_uv=False)
+        where = ("its vertices lie on one line" if spread[1] <= 1e-9 * spread[0]
+                 else "each has its corners on one line")
+        raise ParameterError(f"{named} is flat: none of its {len(faces)} triangles has an "
+                             f"area ({where})")
+    return TriangleMesh(v, faces, str(path), bool(mesh.is_watertight))
+
+
+def _read_mesh_scene(file, named):
+    """The file through trimesh, unprocessed (each part's vertices and faces as the file has
+    them), or one line saying why it is not a mesh."""
+    import trimesh
+
+    try:
+        return trimesh.load_scene(file, process=False)
+    except ImportError as error:  # a reader's optional module, wanted for this file's content
+        if error.name == "charset_normalizer":  # wanted only to guess a text's encoding
+            kind = "neither a binary STL nor UTF-8 text" if file.suffix.lower() == ".stl" \
+                else "not UTF-8 text"
+            raise ParameterError(f"{named} could not be read as a mesh: it is {kind}") from None
+        raise ParameterError(f"{named} could not be read as a mesh: its reader needs the "
+                             f"module {error.name!r}") from None
+    except IndexError as error:  # an OBJ's face naming a vertex it lacks (numpy's words)
+        beyond = re.fullmatch(r"index (\d+) is out of bounds for axis 0 with size (\d+)",
+                              str(error))
+        if beyond and file.suffix.lower() == ".obj":  # OBJ counts its vertices from 1
+            index, count = int(beyond[1]) + 1, int(beyond[2])
+            raise ParameterError(f"{named} has a face index {index} out of range: it has "
+                                 f"{count} vertices (1 to {count})") from None
+        raise ParameterError(f"{named} could not be read as a mesh: an index in it is out of "
+                             f"range ({error})") from None
+    except Exception as error:  # trimesh raises many kinds for unreadable files
+        raise ParameterError(f"{named} could not be read as a mesh: {error}") from None
+
+
+def _check_raw_mesh(part, named):
+    """One part of a mesh file as read: finite vertices within +-MAX_COORDINATE, faces that
+    index them."""
+    v = np.asarray(part.vertices, float).reshape(-1, 3)
+    bad = ~np.all(np.isfinite(v), axis=1)
+    if bad.any():
+        first = ", ".join(f"{x:g}" for x in v[bad][0])
+        count = np.count_nonzero(bad)
+        which = "a vertex that is not finite:" if count == 1 else \
+            f"{count} vertices that are not finite, the first"
+        raise ParameterError(f"{named} has {which} ({first})")
+    if v.size and np.abs(v).max() > MAX_COORDINATE:
+        raise ParameterError(f"{named} has a coordinate of {np.abs(v).max():g}; coordinates "
+                             f"must lie within +-{MAX_COORDINATE:g}")
+    faces = np.asarray(getattr(part, "faces", np.zeros((0, 3), int)))
+    if faces.size and (faces.min() < 0 or faces.max() >= len(v)):
+        index = faces.max() if faces.max() >= len(v) else faces.min()
+        raise ParameterError(f"{named} has a face index {index} out of range: it has "
+                             f"{len(v)} vertices (0 to {len(v) - 1})")
 
 
 def mask_field(solid, voxel):

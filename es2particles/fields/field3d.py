@@ -26,7 +26,8 @@ voxel centre) or triangle meshes (OBJ, STL, PLY through trimesh, the ``mesh`` ex
 made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh; an
 open shell grown by a voxel across its faces), then an exact Euclidean distance transform (scipy)
 gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces. A
-mesh file is checked before it is used (:func:`load_mesh`).
+mesh file is checked before it is used (:func:`load_mesh`), and the voxelising's work and memory
+are estimated from its triangles before it starts (:func:`check_voxelising`).
 """
 
 import re
@@ -134,6 +135,42 @@ SHAPES = {"sphere": (Sphere, "CX,CY,CZ,R"), "box": (Box, "CX,CY,CZ,HX,HY,HZ"),
 
 # --- triangle meshes: a solid voxel mask, then an exact distance transform ----------------------
 
+# The voxeliser's work. trimesh.remesh.subdivide_to_size bisects every edge longer than a quarter
+# voxel, so a triangle becomes a number of points that grows with its size over that step
+# squared, not with the file: 300 triangles across the box (a 15 KB STL) are ~160 million points
+# at --field-resolution 256, where the 320-triangle icosphere of the tests is ~10 million.
+# Measured on trimesh 5.2 over 400 random triangles (slivers and needles among them): a triangle
+# of area A and longest edge L (in quarter voxels) gives between 0.19 and 2.75 times
+# 3 + 2 A + 0.3 L^2 points (a sliver still splits into ~0.1 L^2 of them); the subdivision's peak
+# is ~700 bytes a point made (its float64 xyz, the int64 faces, their edges sorted and hashed);
+# 300 to 400 thousand points are made a second on one core. So the work is done in runs of
+# triangles (TriangleMesh.chunks), each under a fixed memory; the whole is capped in points
+# (time), and the largest run must fit in the memory available now (free_memory).
+SURFACE_POINTS_PER_CHUNK = 2 ** 18  # estimated: a run's peak is under 0.55 GB (3 x 700 bytes)
+MAX_SURFACE_POINTS = 2 ** 26  # estimated, the whole mesh: ~3 minutes' work; beyond, refused
+BYTES_PER_SURFACE_POINT = 700
+ESTIMATE_MARGIN = 3  # the most points a triangle made beyond its estimate (2.75), rounded up
+
+
+def free_memory():
+    """Bytes of memory a process may take now without swapping, or None where the system does
+    not say: Linux's MemAvailable (free pages and the cache it can drop), else free pages
+    (os.sysconf's SC_AVPHYS_PAGES, which leaves the cache out: an underestimate)."""
+    import os
+
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
 @dataclass(frozen=True, eq=False)
 class TriangleMesh:
     """An indexed triangle mesh in world units (loaded by :func:`load_mesh`); ``name`` is the
@@ -147,21 +184,50 @@ class TriangleMesh:
     def bounds(self):
         return self.vertices.min(axis=0), self.vertices.max(axis=0)
 
+    def surface_points(self, voxel):
+        """Estimated points the voxeliser makes of each triangle at ``voxel`` (see
+        SURFACE_POINTS_PER_CHUNK's comment: 0.19 to 2.75 times the points made), float64 (F,)."""
+        corners = self.vertices[self.faces] / (voxel / 4)  # in quarter voxels
+        longest = np.linalg.norm(corners - np.roll(corners, 1, axis=1), axis=-1).max(axis=1)
+        area = np.linalg.norm(np.cross(corners[:, 1] - corners[:, 0],
+                                       corners[:, 2] - corners[:, 0]), axis=-1) / 2
+        return 3 + 2 * area + 0.3 * longest ** 2
+
+    def chunks(self, voxel):
+        """The faces in runs of consecutive triangles of about SURFACE_POINTS_PER_CHUNK
+        estimated points each (a triangle estimated above that is a run of its own)."""
+        run = np.cumsum(self.surface_points(voxel)) // SURFACE_POINTS_PER_CHUNK
+        return np.split(self.faces, np.flatnonzero(np.diff(run)) + 1)
+
     def solid(self, lo, voxel, cells):
         """Boolean (nz, ny, nx) mask: the voxels the surface passes through (where its points,
         a quarter voxel apart, fall), and the inside of each closed part (the holes the surface
         voxels enclose). Surface voxels found this way may meet only at an edge or a corner where
         the surface grazes one; a closed mesh's filled inside covers that, an open shell is grown
-        by one voxel across its faces (6-connected) so that nothing passes between them."""
+        by one voxel across its faces (6-connected) so that nothing passes between them.
+
+        The points are made a run of triangles at a time (:meth:`chunks`) and their voxels marked
+        as they come, so the peak memory is one run's, not the whole surface's. The mask is the
+        one subdividing the whole mesh at once gives: trimesh bisects an edge by its length
+        alone, at its midpoint (the same float64 sum from either face), so each triangle's points
+        do not depend on its neighbours. :class:`VoxelField` refuses a mesh whose estimated work
+        is beyond MAX_SURFACE_POINTS, or one run of which would not fit in the free memory."""
         from scipy import ndimage
         import trimesh
 
-        points, _ = trimesh.remesh.subdivide_to_size(self.vertices, self.faces,
-                                                     max_edge=voxel / 4, max_iter=40)
-        index = np.floor((points - lo) / voxel).astype(int)
-        index = index[np.all((index >= 0) & (index < cells), axis=1)]
         mask = np.zeros(cells[::-1], bool)
-        mask[index[:, 2], index[:, 1], index[:, 0]] = True
+
+        def mark(points):
+            index = np.floor((points - lo) / voxel).astype(int)
+            index = index[np.all((index >= 0) & (index < cells), axis=1)]
+            mask[index[:, 2], index[:, 1], index[:, 0]] = True
+
+        mark(self.vertices)
+        for faces in self.chunks(voxel):
+            used, corners = np.unique(faces, return_inverse=True)
+            points, _ = trimesh.remesh.subdivide_to_size(
+                self.vertices[used], corners.reshape(-1, 3), max_edge=voxel / 4, max_iter=40)
+            mark(points)
         if not self.closed:
             mask = ndimage.binary_dilation(mask, ndimage.generate_binary_structure(3, 1))
         return ndimage.binary_fill_holes(mask)
@@ -379,6 +445,45 @@ def atlas_layout(cells, max_size, block=(1, 1)):
     return tw, th, columns, columns * tw, rows * th
 
 
+def check_voxelising(mesh, extent, resolution, margin):
+    """Refuse, in one line naming the mesh file, a mesh whose voxelising (:meth:`TriangleMesh.solid`
+    at the voxel of ``resolution`` over ``extent``, less ``margin`` voxels) is estimated beyond
+    MAX_SURFACE_POINTS points, or whose largest run of triangles would not fit in the memory free
+    now; the line says the resolution that would do. Costs O(triangles), before any voxel."""
+    free = free_memory()
+
+    def cost(n):  # (estimated points, peak bytes of the largest run) at resolution n
+        points = mesh.surface_points(extent / (n - margin))
+        # A run holds under the budget plus one triangle, and no more than the whole mesh.
+        run = min(points.sum(), SURFACE_POINTS_PER_CHUNK + points.max())
+        return points.sum(), run * ESTIMATE_MARGIN * BYTES_PER_SURFACE_POINT
+
+    def fits(n):
+        points, peak = cost(n)
+        return points <= MAX_SURFACE_POINTS and (free is None or peak <= free)
+
+    if fits(resolution):
+        return
+    lower, upper = 16, resolution  # the largest resolution that fits, by bisection
+    if not fits(lower):
+        advice = f"even --field-resolution {lower} is too much: simplify the mesh"
+    else:
+        while upper - lower > 1:
+            middle = (lower + upper) // 2
+            lower, upper = (middle, upper) if fits(middle) else (lower, middle)
+        advice = f"lower --field-resolution to {lower} or less"
+    points, peak = cost(resolution)
+    if points > MAX_SURFACE_POINTS:
+        raise ParameterError(
+            f"mesh file {mesh.name!r} needs about {points / 1e6:.0f} million points to voxelise "
+            f"at --field-resolution {resolution} (its triangles cut to a quarter voxel; at most "
+            f"{MAX_SURFACE_POINTS / 1e6:.0f} million, minutes of work): {advice}")
+    raise ParameterError(
+        f"mesh file {mesh.name!r} needs about {peak / 1e9:.1f} GB at once to voxelise at "
+        f"--field-resolution {resolution} (a run of its triangles cut to a quarter voxel), more "
+        f"than the {free / 1e9:.1f} GB of memory available: {advice}")
+
+
 class VoxelField:
     """Distance and normal on cubic voxels around a union of shapes, in object space.
 
@@ -406,6 +511,9 @@ class VoxelField:
                 raise ParameterError(
                     f"{s} is thinner than two voxels of {self.voxel:.3g} at field resolution "
                     f"{self.resolution}: raise --field-resolution or thicken the shape")
+        for s in shapes:
+            if isinstance(s, TriangleMesh):
+                check_voxelising(s, float((hi - lo).max()), self.resolution, 2 * margin)
         self.bounds = (lo, hi)  # of the shapes, world units at rest
         self.pivot = np.asarray((lo + hi) / 2 if pivot is None else pivot, float)
         self.cells = tuple(int(c) for c in np.ceil((hi - lo) / self.voxel - 1e-9) + 2 * margin)

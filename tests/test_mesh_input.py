@@ -7,7 +7,6 @@ voxeliser's runs of triangles give the mask that subdividing the whole mesh at o
 import os
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -157,25 +156,33 @@ def large_triangles(count=300, seed=0):
     return np.random.default_rng(seed).uniform(-1, 1, (count, 3, 3))
 
 
-def test_300_large_triangles_at_resolution_256_are_refused_fast(tmp_path, capsys, monkeypatch):
+def test_300_large_triangles_at_resolution_256_are_refused_fast(tmp_path):
     """A 15 KB STL whose triangles, cut to a quarter voxel, are ~160 million points: it died of a
-    MemoryError traceback after minutes. Now estimated from the triangles before any voxel, in
-    well under a second of work, and refused in one line saying what to lower. (A warning of the
-    field's size may come first: it is a warning, not the refusal.)"""
+    MemoryError after minutes. Now estimated from the triangles before any voxel and refused in
+    one line saying what to lower, in well under a second. In a process of its own with 4 GiB of
+    address space, so that a regression is a MemoryError, not the machine's OOM killer. (A
+    warning of the field's size may come first: it is a warning, not the refusal.)"""
     pytest.importorskip("trimesh")
+    import resource
+
     path = tmp_path / "large.stl"
     path.write_bytes(binary_stl(large_triangles()))
     assert path.stat().st_size == 84 + 50 * 300
-    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
     out = tmp_path / "x.png"
-    start = time.perf_counter()
-    code = main(["run", "collision3d", "--shape", str(path), "--field-resolution", "256",
-                 "--out", str(out), *SMALL])
-    seconds = time.perf_counter() - start
-    err = capsys.readouterr().err
+    timed = ("import sys, time; from es2particles.cli import main; start = time.perf_counter(); "
+             "code = main(sys.argv[1:]); print(time.perf_counter() - start); sys.exit(code)")
+    limit = 4 << 30
+    done = subprocess.run(
+        [sys.executable, "-c", timed, "run", "collision3d", "--shape", str(path),
+         "--field-resolution", "256", "--out", str(out), *SMALL],
+        capture_output=True, text=True, timeout=300,
+        env={**os.environ, "ES2PARTICLES_BACKEND": "nope"},
+        preexec_fn=lambda: resource.setrlimit(resource.RLIMIT_AS, (limit, limit)))
+    err = done.stderr
     errors = [line for line in err.splitlines() if not line.startswith("es2particles: warning:")]
-    assert code == 2 and len(errors) == 1 and "Traceback" not in err, err
+    assert done.returncode == 2 and len(errors) == 1 and "Traceback" not in err, err
     assert all("field cells" in line for line in err.splitlines() if line not in errors), err
+    seconds = float(done.stdout)
     assert seconds < 3, f"refused after {seconds:.1f} s"
     assert f"mesh file {str(path)!r} needs about " in errors[0]
     assert "million points to voxelise at --field-resolution 256" in errors[0]

@@ -484,6 +484,28 @@ def check_voxelising(mesh, extent, resolution, margin):
         f"than the {free / 1e9:.1f} GB of memory available: {advice}")
 
 
+def field_box(shapes, resolution):
+    """(lo, hi, voxel) of a :class:`VoxelField` of ``resolution`` around ``shapes`` (their
+    bounds at rest, the cubic voxel), refusing in one line what the field cannot be made of: a
+    shape thinner than two voxels, a mesh whose voxelising is too costly (check_voxelising).
+    O(triangles), before any voxel: a caller may say the field's cost after it, before the
+    work."""
+    lo = np.min([s.bounds()[0] for s in shapes], axis=0)
+    hi = np.max([s.bounds()[1] for s in shapes], axis=0)
+    margin = FAR_VOXELS + 1
+    # Cubic voxels, the longest side spanning resolution - 2 margin of them.
+    voxel = float((hi - lo).max()) / (resolution - 2 * margin)
+    for s in shapes:
+        if hasattr(s, "half_thickness") and s.half_thickness() < voxel:
+            raise ParameterError(
+                f"{s} is thinner than two voxels of {voxel:.3g} at field resolution "
+                f"{resolution}: raise --field-resolution or thicken the shape")
+    for s in shapes:
+        if isinstance(s, TriangleMesh):
+            check_voxelising(s, float((hi - lo).max()), resolution, 2 * margin)
+    return lo, hi, voxel
+
+
 class VoxelField:
     """Distance and normal on cubic voxels around a union of shapes, in object space.
 
@@ -501,19 +523,8 @@ class VoxelField:
         if not shapes:
             raise ParameterError("a voxel field needs at least one shape")
         self.resolution = int(check_range("field resolution", resolution, 16, 256, integer=True))
-        lo = np.min([s.bounds()[0] for s in shapes], axis=0)
-        hi = np.max([s.bounds()[1] for s in shapes], axis=0)
+        lo, hi, self.voxel = field_box(shapes, self.resolution)
         margin = FAR_VOXELS + 1
-        # Cubic voxels, the longest side spanning resolution - 2 margin of them.
-        self.voxel = float((hi - lo).max()) / (self.resolution - 2 * margin)
-        for s in shapes:
-            if hasattr(s, "half_thickness") and s.half_thickness() < self.voxel:
-                raise ParameterError(
-                    f"{s} is thinner than two voxels of {self.voxel:.3g} at field resolution "
-                    f"{self.resolution}: raise --field-resolution or thicken the shape")
-        for s in shapes:
-            if isinstance(s, TriangleMesh):
-                check_voxelising(s, float((hi - lo).max()), self.resolution, 2 * margin)
         self.bounds = (lo, hi)  # of the shapes, world units at rest
         self.pivot = np.asarray((lo + hi) / 2 if pivot is None else pivot, float)
         self.cells = tuple(int(c) for c in np.ceil((hi - lo) / self.voxel - 1e-9) + 2 * margin)

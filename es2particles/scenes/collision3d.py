@@ -17,7 +17,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import ParameterError
-from ..fields.field3d import Box, Capsule, Sphere, Torus, VoxelField, parse_shapes
+from ..fields.field3d import Box, Capsule, Sphere, Torus, VoxelField, field_box, parse_shapes
 from ..frame.motion import Motion
 from ..params import param
 from ..render.lamp import Lamp
@@ -176,9 +176,11 @@ class Collision3D(Emitter):
         self.block = parse_field_format(p.field_format)
         self.field_format = p.field_format
         if field is None:
+            shapes = parse_shapes(p.shape)
+            field_box(shapes, p.field_resolution)  # its refusals, before the word on its cost
             self.warn_of_cost(FIELD_CELLS)
-        self.field = field if field is not None else VoxelField(parse_shapes(p.shape),
-                                                                p.field_resolution)
+            field = VoxelField(shapes, p.field_resolution)
+        self.field = field
         f = self.field
         # The object must stay inside the position range (particles there die), whatever pose.
         lo, hi = f.bounds

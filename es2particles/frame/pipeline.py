@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 
 from ..errors import Es2ParticlesError, NothingDrawnWarning, ParameterError, check_range
+from . import memory
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
 from .settings import DEFAULT, Defaults, FrameSettings, parse_size
@@ -78,12 +79,20 @@ class Pipeline:
         once. ``share``: which share of a larger still this pipeline draws
         (``cluster/shares.py``): share 0 is a plain run; share s > 0 starts from the seed (seed,
         s) and, reseeded, from the grid shifted by samples s * accumulate onwards.
+    animation : (frames, suffix), optional
+        The animation its frames are written to (``.webp``, ``.gif``, ``.png``, ``.mp4``), so
+        the memory check counts what the writer holds; None: a still.
+
+    Before anything is made, the run's memory (``frame/memory.py``) is checked against what the
+    machine has: a run that cannot fit is refused in one line naming what to lower; ``memory``
+    keeps the :class:`~es2particles.frame.memory.Estimate`.
     """
 
     def __init__(self, ctx, scene, particles=DEFAULT, size=DEFAULT, fmt=DEFAULT,
                  point_size=DEFAULT, intensity=DEFAULT, exposure=DEFAULT, gradient=DEFAULT,
                  bloom=DEFAULT, seed=DEFAULT, rounding=DEFAULT, steps=DEFAULT,
-                 accumulate=DEFAULT, vertex_fetch=DEFAULT, share=None, settings=None):
+                 accumulate=DEFAULT, vertex_fetch=DEFAULT, share=None, settings=None,
+                 animation=None):
         self.executor = self.sim = None
         given = {name: value for name, value in dict(
             particles=particles, size=size, format=fmt, point_size=point_size,
@@ -97,6 +106,9 @@ class Pipeline:
         self.ctx, self.scene = ctx, scene
         ctx.make_current()
         self.plan = plan_frame(scene, self.settings, ctx.caps)
+        # Before the executor's textures and the start's arrays: a run that cannot fit is one
+        # line, not a MemoryError seconds in.
+        self.memory = memory.check(self.plan, animation)
         self.size, self.steps = self.plan.size, self.plan.steps
         self.accumulate, self.share = self.plan.accumulate, self.settings.share
         seed = self.plan.settings["seed"]

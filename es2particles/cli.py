@@ -569,7 +569,8 @@ def _run(args):
                     f"{len(sizes)} shares of at most {shares.SHARE})")
             density = ""
         else:
-            scene, pipeline = run.pipeline(ctx, scene)
+            animation = (frames, out.suffix.lower()) if frames > 1 else None
+            scene, pipeline = run.pipeline(ctx, scene, animation=animation)
             with pipeline:
                 _note_sparse(pipeline)
                 if load_path is not None:

@@ -61,14 +61,16 @@ class Run:
         check_settings(self.settings, scene)
         return scene
 
-    def pipeline(self, ctx, scene=None, **changes):
+    def pipeline(self, ctx, scene=None, animation=None, **changes):
         """(scene, :class:`~es2particles.frame.pipeline.Pipeline`) of this run on ``ctx`` (the
         ``scene`` made already, or made here), with ``changes`` to its settings (a share of a
-        still: its particles, its share, intensity 1)."""
+        still: its particles, its share, intensity 1); ``animation``: (frames, suffix) of the
+        animation it writes, whose writer's memory the pipeline's estimate counts."""
         from .frame.pipeline import Pipeline
 
         scene = self.make_scene() if scene is None else scene
-        return scene, Pipeline(ctx, scene, settings=replace(self.settings, **changes))
+        return scene, Pipeline(ctx, scene, settings=replace(self.settings, **changes),
+                               animation=animation)
 
     def with_settings(self, **changes):
         return replace(self, settings=replace(self.settings, **changes))

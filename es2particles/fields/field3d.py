@@ -153,22 +153,12 @@ ESTIMATE_MARGIN = 3  # the most points a triangle made beyond its estimate (2.75
 
 
 def free_memory():
-    """Bytes of memory a process may take now without swapping, or None where the system does
-    not say: Linux's MemAvailable (free pages and the cache it can drop), else free pages
-    (os.sysconf's SC_AVPHYS_PAGES, which leaves the cache out: an underestimate)."""
-    import os
+    """Bytes of memory this process may take now, or None where no limit could be read: the
+    least of MemAvailable, a cgroup's limit and ``ulimit -v`` (``frame.memory.available``, which
+    every run's estimate is checked against too)."""
+    from ..frame.memory import available
 
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (AttributeError, ValueError, OSError):
-        return None
+    return available().bytes
 
 
 @dataclass(frozen=True, eq=False)

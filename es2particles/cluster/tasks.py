@@ -23,6 +23,7 @@ is current in one thread.
 
 import asyncio
 import json
+import logging
 import os
 import shutil
 import sys
@@ -110,14 +111,28 @@ class ClusterError(Es2ParticlesError):
     workers kept dying on a task."""
 
 
+class OneLineRecords(logging.Filter):
+    """Dask's client logs a lost scheduler as records with tracebacks, some with no message at
+    all, before the run's own last line says what happened: each record keeps its first line
+    and loses its traceback, and one with no words goes."""
+
+    def filter(self, record):
+        lines = record.getMessage().strip().splitlines()
+        record.msg, record.args = (lines[0] if lines else ""), ()
+        record.exc_info = record.exc_text = record.stack_info = None
+        return bool(lines)
+
+
+ONE_LINE_RECORDS = OneLineRecords()
+
+
 def connect(workers=None, scheduler=None):
     """A Dask client: of a new LocalCluster of ``workers`` single-thread processes, or of the
-    scheduler at address ``scheduler`` (``join``). The caller closes it (and the LocalCluster
-    with it)."""
-    import logging
-
+    scheduler at address ``scheduler`` (``join``). The caller closes it (``close``: the
+    LocalCluster with it). While it is open, Dask's client logs one line a record."""
     from distributed import Client, LocalCluster
 
+    logging.getLogger("distributed.client").addFilter(ONE_LINE_RECORDS)
     if scheduler is not None:
         return join(scheduler)
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
@@ -265,6 +280,7 @@ def close(client):
     client.close()
     if cluster is not None:
         cluster.close()
+    logging.getLogger("distributed.client").removeFilter(ONE_LINE_RECORDS)
 
 
 def workers(client):
@@ -274,12 +290,16 @@ def workers(client):
 def finished(client, futures, what, kept, worker_timeout=WORKER_TIMEOUT):
     """Yield each of ``futures`` (``what`` they are: "frame tasks") as it finishes, watching the
     cluster while none does. Where it has had no worker for ``worker_timeout`` s while some are
-    left (its last worker died, or none ever came), or workers kept dying on one of them, raise a
-    ClusterError saying so and what was kept (``kept()``, a sentence)."""
+    left (its last worker died, or none ever came), workers kept dying on one of them, or Dask
+    cancelled them (the scheduler lost), raise a ClusterError saying so and what was kept
+    (``kept()``, a sentence)."""
     import time
 
     from distributed import KilledWorker, TimeoutError, wait
+    from distributed import client as dask_client
 
+    cancelled = getattr(dask_client, "FuturesCancelledError", ())  # raised by newer Dask
+    address = client.scheduler.address
     left = list(futures)
     alone_since = None  # when the cluster was first seen with no worker
     while left:
@@ -287,7 +307,15 @@ def finished(client, futures, what, kept, worker_timeout=WORKER_TIMEOUT):
             done, left = wait(left, timeout=WATCH, return_when="FIRST_COMPLETED")
         except TimeoutError:
             done = ()
+        except cancelled as error:
+            reasons = sorted({str(g.reason) for g in getattr(error, "error_groups", ())})
+            raise ClusterError(f"Dask cancelled the {what} ({', '.join(reasons) or 'no reason'}"
+                               f"): the scheduler at {address} is gone or was restarted; "
+                               f"{kept()}") from None
         for future in done:
+            if future.cancelled():  # how older Dask says it
+                raise ClusterError(f"Dask cancelled the {what}: the scheduler at {address} is "
+                                   f"gone or was restarted; {kept()}")
             if future.status == "error" and isinstance(future.exception(), KilledWorker):
                 raise ClusterError(f"workers kept dying on one of the {what} (Dask gave it up "
                                    f"after distributed.scheduler.allowed-failures deaths; their "
@@ -301,9 +329,9 @@ def finished(client, futures, what, kept, worker_timeout=WORKER_TIMEOUT):
         elif alone_since is None:
             alone_since = time.monotonic()
         elif time.monotonic() - alone_since >= worker_timeout:
-            raise ClusterError(f"no worker on the cluster at {client.scheduler.address} for "
-                               f"{worker_timeout:g} s (--worker-timeout) with {len(left)} of "
-                               f"{len(futures)} {what} left; {kept()}")
+            raise ClusterError(f"no worker on the cluster at {address} for {worker_timeout:g} s "
+                               f"(--worker-timeout) with {len(left)} of {len(futures)} {what} "
+                               f"left; {kept()}")
 
 
 def still(client, run, out, sizes, worker_timeout=WORKER_TIMEOUT):
@@ -322,7 +350,7 @@ def still(client, run, out, sizes, worker_timeout=WORKER_TIMEOUT):
         return f"nothing was written to {out}"
 
     if sizes is None:  # one pipeline: the frame task of a one-frame animation is the still
-        data = result(client.submit(frames_task, run, [0], pure=False), "still's task")[0]
+        data = result(client.submit(frames_task, run, [0], pure=False), "tasks")[0]
     else:
         groups = np.array_split(np.arange(len(sizes)),
                                 min(len(sizes), GROUPS_PER_WORKER * workers(client)))
@@ -341,7 +369,7 @@ def still(client, run, out, sizes, worker_timeout=WORKER_TIMEOUT):
                                f"{worker_timeout:g} s (--worker-timeout) to take the summed "
                                f"shares; {nothing()}") from None
         data = result(client.submit(tone_map_task, run, total, sum(sizes), pure=False),
-                      "tone-map task")
+                      "tasks")
     return write_atomic(out, lambda tmp: Path(tmp).write_bytes(data))
 
 

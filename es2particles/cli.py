@@ -352,7 +352,7 @@ def _add_run_options(parser, command):
         help="run on a new local Dask cluster of this many worker processes, one GL context "
              "each (the distributed extra): an animation's frames, or a still's shares of "
              "particles, as tasks; the same bytes as one process")
-    add("--scheduler", default=None,
+    add("--scheduler", default=None, metavar="ADDRESS",
         help="run on the Dask cluster of this scheduler address (tcp://host:8786), as "
              "--workers does")
     add("--worker-timeout", default=None, metavar="SECONDS",

@@ -81,7 +81,7 @@ class Run:
 RUN_KEYS = ("scene", "frames", "steps_per_frame", "fps", "settings", "parameters")
 # The command line's own options of a run (cli.py), which no scene parameter may be named.
 RUN_OPTIONS = ("out", "config", "save_config", "frames", "steps_per_frame", "fps", "save_state",
-               "load_state", "workers", "scheduler")
+               "load_state", "workers", "scheduler", "worker_timeout")
 HEADER = "# An es2particles run: es2particles run --config {name} --out picture.png\n"
 
 

@@ -12,7 +12,9 @@ import pytest
 from es2particles import FrameSettings
 from es2particles.errors import ParameterError
 from es2particles.frame import memory
-from es2particles.frame.memory import GiB, MiB, Room
+from es2particles.frame.memory import GiB, MiB
+from es2particles.io import memory as machine
+from es2particles.io.memory import Room
 from es2particles.frame.plan import plan_frame
 from es2particles.scenes import Confetti, DeJong, Fountain
 
@@ -90,28 +92,28 @@ def test_available_is_the_least_of_the_limits_that_apply():
     v2 = {"memory.max": "1073741824\n", "memory.current": "536870912\n",
           "memory.stat": "anon 402653184\nfile 134217728\ninactive_file 134217728\n"}
     status = "Name:\tpython\nVmPeak:\t 1200000 kB\nVmSize:\t 1048576 kB\n"
-    room = memory.available(MEMINFO, [v2], 4 * GiB, status)
+    room = machine.available(MEMINFO, [v2], 4 * GiB, status)
     assert room.limits == {"MemAvailable": 8 * GiB,
                            "address-space limit, ulimit -v": 3 * GiB,
                            "cgroup memory limit": 1 * GiB - (512 - 128) * MiB}
     assert (room.bytes, room.source) == (640 * MiB, "cgroup memory limit")
-    assert memory.available(MEMINFO, [], 4 * GiB, status).source == \
+    assert machine.available(MEMINFO, [], 4 * GiB, status).source == \
         "address-space limit, ulimit -v"
-    assert memory.available(MEMINFO, [], -1, status) == Room(
+    assert machine.available(MEMINFO, [], -1, status) == Room(
         8 * GiB, "MemAvailable", {"MemAvailable": 8 * GiB, "address-space limit, ulimit -v":
                                   None, "cgroup memory limit": None})
-    assert memory.available("", [], -1, "").bytes is None
+    assert machine.available("", [], -1, "").bytes is None
 
 
 def test_cgroups_without_a_limit_set_none_and_an_ancestor_s_limit_counts():
-    assert memory.cgroup_room({"memory.max": "max\n", "memory.current": "123\n"}) is None
+    assert machine.cgroup_room({"memory.max": "max\n", "memory.current": "123\n"}) is None
     v1_none = {"memory.limit_in_bytes": "9223372036854771712\n",
                "memory.usage_in_bytes": "461426688\n"}
-    assert memory.cgroup_room(v1_none) is None
+    assert machine.cgroup_room(v1_none) is None
     v1 = {"memory.limit_in_bytes": str(2 * GiB), "memory.usage_in_bytes": str(GiB + 5 * MiB),
           "memory.stat": "cache 0\ntotal_inactive_file 5242880\n"}
-    assert memory.cgroup_room(v1) == GiB
-    assert memory.available(MEMINFO, [v1_none, v1], -1, None).bytes == GiB
+    assert machine.cgroup_room(v1) == GiB
+    assert machine.available(MEMINFO, [v1_none, v1], -1, None).bytes == GiB
 
 
 def test_the_process_s_cgroups_are_found_from_its_cgroup_and_mount_tables(tmp_path):
@@ -128,10 +130,10 @@ def test_the_process_s_cgroups_are_found_from_its_cgroup_and_mount_tables(tmp_pa
     mountinfo = (f"35 31 0:32 / {tmp_path}/memory rw,relatime - cgroup cgroup rw,memory\n"
                  f"41 31 0:38 / {tmp_path}/unified rw,relatime - cgroup2 cgroup2 rw\n"
                  f"32 31 0:29 / {tmp_path}/cpu rw,relatime - cgroup cgroup rw,cpu\n")
-    files = memory.cgroup_files("4:memory:/jobs/job1\n1:cpu:/\n0::/user\n", mountinfo)
+    files = machine.cgroup_files("4:memory:/jobs/job1\n1:cpu:/\n0::/user\n", mountinfo)
     assert [f.get("memory.limit_in_bytes") for f in files] == [f"{3 * GiB}\n", f"{2 * GiB}\n",
                                                                None]
-    assert memory.available(MEMINFO, files, -1, None) == Room(
+    assert machine.available(MEMINFO, files, -1, None) == Room(
         GiB, "cgroup memory limit", {"MemAvailable": 8 * GiB,
                                      "address-space limit, ulimit -v": None,
                                      "cgroup memory limit": GiB})

@@ -14,7 +14,8 @@ from es2particles.scenes import BUILT_IN, scene_class
 SMALL = ["--particles", "2048", "--size", "96x96"]
 # Options every scene's run takes (the output, the run as a file, the frames, the cluster).
 RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-frame",
-               "--fps", "--save-state", "--load-state", "--workers", "--scheduler"}
+               "--fps", "--save-state", "--load-state", "--workers", "--scheduler",
+               "--worker-timeout"}
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
 COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size"}
 DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",

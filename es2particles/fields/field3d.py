@@ -154,9 +154,9 @@ ESTIMATE_MARGIN = 3  # the most points a triangle made beyond its estimate (2.75
 
 def free_memory():
     """Bytes of memory this process may take now, or None where no limit could be read: the
-    least of MemAvailable, a cgroup's limit and ``ulimit -v`` (``frame.memory.available``, which
+    least of MemAvailable, a cgroup's limit and ``ulimit -v`` (``io.memory.available``, which
     every run's estimate is checked against too)."""
-    from ..frame.memory import available
+    from ..io.memory import available
 
     return available().bytes
 

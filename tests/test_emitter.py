@@ -47,10 +47,11 @@ def unlit_expectation(scene, point_size, height):
     return 1 / d0 ** 2, d, point_size * height / 1024 / np.sqrt(d * d / d0 ** 2)
 
 
-@pytest.mark.parametrize("given", [{"point_size": 0.01}, {"point_size": 0.05, "eye_far": 1}])
+@pytest.mark.parametrize("given", [{"point_size": 1.0, "size": (32, 24)},  # the least size
+                                   {"point_size": 2.0, "size": (128, 96), "eye_far": 1}])
 def test_a_picture_with_no_lit_sprite_warns_with_its_figures(gl, given):
     scene = Fountain(eye=(0.0, 3.0, 60.0)) if given.get("eye_far") else Fountain()
-    size = (128, 96)
+    size = given["size"]
     c, d, diameter = unlit_expectation(scene, given["point_size"], size[1])
     with Pipeline(gl, scene, particles=512, size=size, point_size=given["point_size"]) as p:
         with pytest.warns(NothingDrawnWarning) as caught:
@@ -79,8 +80,8 @@ def test_a_picture_with_lit_sprites_does_not_warn_and_is_the_same_with_the_check
 @pytest.mark.gl
 def test_the_command_line_says_the_warning_in_one_line(tmp_path, capsys):
     out = tmp_path / "f.png"
-    assert main(["run", "fountain", "--particles", "512", "--size", "96x96", "--point-size",
-                 "0.01", "--out", str(out)]) == 0
+    assert main(["run", "fountain", "--particles", "512", "--size", "32x32", "--point-size",
+                 "1", "--out", str(out)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [line for line in err if line.startswith("es2particles: warning: frame 0: no "
                                                            "sprite lit a pixel")] and len(err) == 1

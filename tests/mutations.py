@@ -161,6 +161,13 @@ MUTATIONS = (
              ((COLLISION3D, "if (dot(moved, n) > 0.0 && d > -2.0 * u_voxel && d < -0.25 * u_voxel) {",
                "if (false) {"),),
              ("tests/test_collision3d.py",)),
+    Mutation("came-from-facing-gone", "collision 3D",
+             "the side-of-entry rule without its 'came from a surface facing away' check (the "
+             "spinning-object leak), shader and twin",
+             _both(COLLISION3D, ("if (dot(n_before, n) < 0.0) {", "if (true) {"),
+                   COLLISION3D_TWIN, ("back[back] = np.sum(came_from * n[back], axis=1) < 0",
+                                      "back[back] = True")),
+             ("tests/test_collision3d.py::test_no_particle_deeper_than_a_voxel_at_the_fastest_spin",)),
     Mutation("surface-velocity-ignored", "collision 3D",
              "contact with a moving object in the world frame, not the surface's, shader only",
              ((COLLISION3D, "vec3 relative = v - surface;", "vec3 relative = v;"),

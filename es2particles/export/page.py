@@ -201,9 +201,9 @@ def page_plan(scene, settings=None, **given):
         entry = {"source": v.source, "count": v.count, "width": v.width, "height": v.height,
                  "attributes": [list(a) for a in v.attributes]}
         if v.source == "data":
-            entry["data"] = _bytes(np.asarray(v.data, np.float32))
-        if v.indices is not None:
-            entry["indices"] = _bytes(np.asarray(v.indices, np.uint32))
+            entry["data"] = _bytes(v.array())
+        if v.indexed:
+            entry["indices"] = _bytes(v.index_array())
         vertices[name] = entry
     return {"scene": scene.name, "title": (scene.__doc__ or scene.name).strip().splitlines()[0],
             "layout": {"count": layout.count, "width": layout.width, "height": layout.height},

@@ -53,9 +53,9 @@ class Executor:
                     self.resources[resource.name] = self._make(resource)
             for vertices in plan.vertices.values():
                 self.buffers[vertices.name] = self.group.buffer(vertices.array().tobytes())
-                if vertices.indices is not None:
+                if vertices.indexed:
                     self.buffers[(vertices.name, "indices")] = self.group.buffer(
-                        np.ascontiguousarray(vertices.indices, np.uint32).tobytes())
+                        vertices.index_array().tobytes())
             for stage in plan.stages:
                 self.commands[stage.name] = self._command(stage)
         except Exception:

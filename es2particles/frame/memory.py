@@ -215,10 +215,10 @@ def estimate(plan, animation=None):
             made += getattr(v.data, "nbytes", 0)
             copy = 0 if getattr(v.data, "dtype", None) == "float32" else nbytes
             peaks.largest("making", option, nbytes + copy)
-        if v.indices is not None:
-            held.add("vertex buffers", option, v.indices.size * 4)
-            made += v.indices.nbytes
-            peaks.largest("making", option, v.indices.size * 4)
+        if v.indexed:
+            held.add("vertex buffers", option, v.indices_size * 4)
+            made += getattr(v.indices, "nbytes", 0)
+            peaks.largest("making", option, v.indices_size * 4)
     w, h = plan.size or (0, 0)
     pixels = w * h
     frames, suffix = animation if animation is not None else (1, None)

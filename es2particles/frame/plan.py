@@ -102,7 +102,10 @@ class Vertices:
     ``width`` x ``height`` grid, row by row (a particle's texel, or a sort slot's: ES 1.00 has no
     gl_VertexID), attribute ``a_texel``; ``data``: an array (n, k) of float32 with ``attributes``
     ((name, components), ...) interleaved (a mesh). ``indices``: uint32 vertex indices the draw
-    walks (a static index buffer), or None."""
+    walks (a static index buffer), or None. Either may be a function making the array, called
+    when the buffers are made: after the run's memory is checked, so a plan of 2^26 quads is
+    refused before gigabytes of corners exist (``index_count``: how many a function of indices
+    makes)."""
 
     name: str
     source: str
@@ -112,12 +115,28 @@ class Vertices:
     data: object = field(default=None, repr=False, compare=False)
     attributes: tuple = (("a_texel", 2),)
     indices: object = field(default=None, repr=False, compare=False)
+    index_count: int = None
 
     def array(self):
         """The vertex data as an (n, k) float32 array."""
         if self.source == "texels":
             return Layout(self.count, self.width, self.height).texel_uv()
-        return np.ascontiguousarray(self.data, dtype=np.float32)
+        data = self.data() if callable(self.data) else self.data
+        return np.ascontiguousarray(data, dtype=np.float32)
+
+    def index_array(self):
+        """The indices as a uint32 array, or None."""
+        indices = self.indices() if callable(self.indices) else self.indices
+        return None if indices is None else np.ascontiguousarray(indices, np.uint32)
+
+    @property
+    def indexed(self):
+        return self.indices is not None
+
+    @property
+    def indices_size(self):
+        """How many indices, without making them."""
+        return self.index_count if callable(self.indices) else len(self.indices)
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ state by the texel). Opaque meshes first, then the quads, all with depth test an
 """
 
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -27,14 +28,17 @@ ROLES = {"position": 3, "normal": 2, "fade": 2}
 
 
 def quad_vertices(layout):
-    """(vertices (4 count, 4) float32: texel u, v and corner x, y; indices (6 count,) uint32):
-    four corners a particle, two triangles each."""
+    """(4 count, 4) float32: texel u, v and corner x, y, four corners a particle."""
     texels = np.repeat(layout.texel_uv(), 4, axis=0)
     corners = np.tile(np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], np.float32),
                       (layout.count, 1))
+    return np.concatenate([texels, corners], 1).astype(np.float32)
+
+
+def quad_indices(layout):
+    """(6 count,) uint32: two triangles of each particle's four corners."""
     first = np.arange(layout.count, dtype=np.uint32)[:, None] * 4
-    indices = (first + np.array([0, 1, 2, 0, 2, 3], np.uint32)).ravel()
-    return np.concatenate([texels, corners], 1).astype(np.float32), indices
+    return (first + np.array([0, 1, 2, 0, 2, 3], np.uint32)).ravel()
 
 
 @dataclass(frozen=True)
@@ -115,8 +119,10 @@ class Quads(Rendering):
         b.resource(Resource("image", "target", size, "rgba8", depth=True, linear=True,
                             what="the picture, with its depth"))
         plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
-        data, indices = quad_vertices(layout)
-        b.vertex_data(Vertices("quads", "data", len(data), data=data, indices=indices,
+        b.vertex_data(Vertices("quads", "data", 4 * layout.count,
+                               data=partial(quad_vertices, layout),
+                               indices=partial(quad_indices, layout),
+                               index_count=6 * layout.count,
                                attributes=(("a_texel", 2), ("a_corner", 2))))
         player = {{"fade": "life"}.get(r, r): q for r, q in self.roles.items()}
         inputs = {sampler: Ref(player[q], part)
@@ -125,7 +131,7 @@ class Quads(Rendering):
             "quads", "quads", "quads/confetti.frag", "quads/confetti.vert",
             {"PALETTE": len(PALETTE)}, vertex_interface=interface, inputs=inputs,
             target=Ref("image"), vertices="quads", primitive="triangles",
-            count=len(indices), state=DrawState(depth_test=True), uniforms=own,
+            count=6 * layout.count, state=DrawState(depth_test=True), uniforms=own,
             generated=generated_values(interface, layout),
             frame_uniforms={"u_view_projection": ("view_projection",)},
             clear=None if self.meshes else (*background, 1.0),

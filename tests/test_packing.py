@@ -195,3 +195,25 @@ def test_a_pass_writing_beyond_the_range_is_clamped_into_it(gl, fmt):
     assert np.array_equal(got[:, :2], exact[:, :2]), f"{fmt}: the ends, {got[:, :2]}"
     # within the range: one write's rounding (half a code in RGBA8, half an ulp in float16)
     assert np.abs(got[:, 2] - exact[:, 2]).max() <= rounding_error(fmt, -1, 1)
+
+
+@pytest.mark.parametrize("fmt", ["rgba8", "rgba16f", "rgba32f"])
+def test_a_start_packed_in_runs_of_rows_is_the_same_bytes(fmt, monkeypatch):
+    """encode_values packs ENCODE_ROWS rows at a time (its temporaries bounded, not 30 bytes a
+    value of 2^26 particles): the texels are those of packing every row at once, values beyond
+    the range and a last short run among them."""
+    from es2particles.frame import state
+    from es2particles.frame.graph import PassGraph
+    from es2particles.twins.pack import state_encode
+
+    monkeypatch.setattr(state, "ENCODE_ROWS", 1000)
+    g = PassGraph()
+    g.quantity("position", (-4.0, -1.0, -4.0), (4.0, 7.0, 4.0))
+    q = g.quantities["position"]
+    values = np.random.default_rng(3).uniform(-6, 9, (4321, 3))
+
+    class Rows:
+        count = len(values)
+
+    whole = state_encode(values.astype(np.float32), q.lo32, q.span32, q.format_in(fmt))
+    assert np.array_equal(state.encode_values(q, Rows, values, fmt), whole)

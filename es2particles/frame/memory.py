@@ -34,37 +34,39 @@ and, one after the other (``Estimate.peaks``: the largest counts):
   frame), GIF (6) or APNG (8) until the file is written, and ffmpeg's H.264 encoder takes
   ~220 bytes a pixel (measured at 2048x2048) in its own process.
 
-Measured against llvmpipe on a 2-core machine: the peak RSS of ``es2particles run`` (its
-``getrusage(RUSAGE_CHILDREN).ru_maxrss``) less that of the same scene with 1024 particles at
-64x64 (the interpreter, numpy and the driver: 123-149 MiB), with ``--steps 1`` at the default
-1024x1024; the estimate is its total and what the plan made:
+Measured against llvmpipe on a 2-core machine: the peak RSS of ``es2particles run`` (from a
+shell: a child's ru_maxrss starts at its parent's) less that of the same scene with 1024
+particles (the interpreter, numpy and the driver: 123-149 MiB), with ``--steps 1`` at the
+default 1024x1024; the estimate is its total and what the plan made. The rows from dejong 2^22
+to smoke 2^24 were measured again once the start was packed ENCODE_ROWS rows at a time
+(``frame/state.py``): fountain's 2^24 peak went from 3154 to 1660 MiB, smoke's from 3988 to
+2492, confetti's 2^22 from 1575 to 935 (its quads' corners are made after the check now, too):
 
 =========================================  ============  ============  =====
 run                                        estimate MiB  measured MiB  ratio
 =========================================  ============  ============  =====
 dejong 2^20                                164           87            1.89
-dejong 2^22 (clifford alike)               512           278           1.84
+dejong 2^22 (clifford alike)               356           254           1.40
 dejong --reseed 2^22, 3 frames to .webp    496           280           1.77
-fountain 2^20                              296           238           1.24
-fountain 2^22                              1064          808           1.32
-fountain 2^24                              3880          3154          1.23
-collision 2^20                             213           142           1.50
-collision 2^22                             705           504           1.40
-collision3d 2^22                           1066          807           1.32
-confetti 2^22                              1834          1575          1.16
-smoke 2^22                                 1273          1016          1.25
-smoke 2^24                                 4713          3988          1.18
+fountain 2^20                              296           217           1.36
+fountain 2^22                              752           512           1.47
+fountain 2^24                              2320          1660          1.40
+collision 2^20                             213           117           1.81
+collision 2^22                             549           331           1.66
+collision3d 2^22                           754           511           1.47
+confetti 2^22                              1194          935           1.28
+smoke 2^22                                 961           719           1.34
+smoke 2^24                                 3153          2492          1.27
 dejong 1024 at 4096x4096                   540           398           1.36
 the same, 6 frames to .webp / .gif / .png  1244-1436     1054-1284     1.12-1.20
 fountain 1024 at 4096x4096                 416           322           1.29
 =========================================  ============  ============  =====
 
-It is above the measure in every case, by 1.1-1.5x where the start's packing dominates and
-up to 2.1x for the attractors (their start is a fill, drawn in float32, where the estimate
-counts a float64 array: the plan cannot tell them apart; dejong --reseed 2^20, 3 frames: 180
-against 86). A 64x64 picture measures as 1024x1024 does, less its targets. A still of more than
+It is above the measure in every case, by 1.1-1.8x, and up to 2.1x for the attractors (their
+start is a fill, drawn in float32, where the estimate counts a float64 array: the plan cannot
+tell them apart; dejong --reseed 2^20, 3 frames: 180 against 86). A 64x64 picture measures as 1024x1024 does, less its targets. A still of more than
 2^22 attractor points is drawn in shares (``cluster/shares.py``), each checked as the pipeline
-of its own 2^22. The check leaves out what the plan has made (a quad's vertex data is made as
+of its own 2^22. The check leaves out what the plan has made (a sort's first order is made as
 the plan is): the process's usage holds it by then.
 """
 
@@ -73,6 +75,7 @@ from dataclasses import dataclass
 from ..errors import ParameterError, check_range
 from ..gl.context import bytes_per_texel
 from ..io.memory import available
+from .state import ENCODE_ROWS
 
 GiB = 2 ** 30
 MiB = 2 ** 20
@@ -200,8 +203,13 @@ def estimate(plan, animation=None):
             peaks.largest("making", None, getattr(r.data, "nbytes", 0))  # its tobytes copy
     states = [r for r in plan.resources.values() if r.kind == "state"]
     if states:
+        # Packing runs ENCODE_ROWS rows at a time: up to them, the temporaries measured; beyond,
+        # each row's texels and the upload's copy of them.
+        rows = min(count, ENCODE_ROWS)
         peaks.add("start", PARTICLES, max(
-            count * pack_bytes(r.quantity.components, r.format) for r in states))
+            rows * pack_bytes(r.quantity.components, r.format)
+            + (count - rows) * 2 * r.quantity.parts(r.format) * bytes_per_texel(r.format)
+            for r in states))
     for v in plan.vertices.values():
         # Vertex data naming a particle's texel is the particles' (a mesh's is the scene's).
         option = PARTICLES if "a_texel" in dict(v.attributes) else None

@@ -138,3 +138,31 @@ def sqrt_error(value, error):
     root = np.sqrt(np.maximum(value, 0))
     return np.where(root > 0, np.minimum(error / np.where(root > 0, root, 1), np.sqrt(error)),
                     np.sqrt(np.maximum(value + error, 0)))
+
+
+# GLSL's precision (GLSL 4.x and ES 3.00; ES 1.00 states none): exp 3 + 2|x| ulp, division
+# 2.5 ulp, inversesqrt 2 ulp, sqrt that of 1 / inversesqrt (4.5 ulp); normalize() is
+# v * inversesqrt(v.v): 2 ulp and a product's rounding, 5 U of each component.
+EXP_ULPS, DIVISION_ULPS, SQRT_ULPS, NORMALIZE = 3.0, 2.5, 4.5, 5 * U
+
+
+def push_out_rescale(turned, v2, e_v2, d, e_depth, an, e_an, direction_error):
+    """The push-out's energy rescale of the 2D and 3D collision steps with its bound: the
+    float64 v * sqrt(max(v2 - 2 d a.n, 0) / v2) is sqrt(max(v2 - 2 d a.n, 0)) along v.
+    ``turned`` (n, k) is v, ``v2`` its squared length within ``e_v2``; ``d`` the depth within
+    ``e_depth``; ``an`` = a.n within ``e_an``; ``direction_error(direction)``: the error of v's
+    direction (its error across it over its length), per component. Returns (rescaled, bound);
+    at rest in float64 the GPU's v may be off 0, and rescaled to any direction."""
+    number = v2 - 2 * d * an
+    e_number = e_v2 + 2 * (e_depth * np.abs(an) + np.abs(d) * e_an + e_depth * e_an) \
+        + 3 * U * (v2 + 2 * np.abs(d * an))
+    scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
+    rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
+    magnitude = np.sqrt(np.maximum(number, 0))
+    direction = turned / np.where(v2 > 0, np.sqrt(v2), 1)[:, None]
+    e_rescaled = (sqrt_error(number, e_number)[:, None] * np.abs(direction)
+                  + magnitude[:, None] * direction_error(direction)
+                  + 2 * (SQRT_ULPS + DIVISION_ULPS + 1) * U * np.abs(rescaled))
+    e_rescaled = np.where((v2 > 0)[:, None], e_rescaled,
+                          np.sqrt(np.maximum(number + e_number, 0))[:, None])
+    return rescaled, e_rescaled

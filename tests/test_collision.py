@@ -11,8 +11,8 @@ write fails it at the first step.
 import numpy as np
 import pytest
 
-from bounds import (HASH_ERROR, U, codec_error, decode_error, half_code, rounding_error,
-                    sqrt_error)
+from bounds import (DIVISION_ULPS, EXP_ULPS, HASH_ERROR, NORMALIZE, U, codec_error,
+                    decode_error, half_code, push_out_rescale, rounding_error)
 from es2particles import ParameterError, Simulation
 from es2particles.fields.field2d import Box, Circle, CollisionField
 from es2particles.scenes.collision import RECT, Collision, CollisionParams
@@ -60,11 +60,7 @@ def download(sim):
 # other side of a branch (a contact, the turn, head-on or not, the thin-wall side, a wall, the
 # field's cell, the sub-step count), the bound grows to the other branch's bound plus its distance
 # from the float64 branch's outcome; the other sub-step count is an alternative reference.
-
-# GLSL's precision (GLSL 4.x and ES 3.00; ES 1.00 states none): exp 3 + 2|x| ulp, division
-# 2.5 ulp, inversesqrt 2 ulp, sqrt that of 1 / inversesqrt (4.5 ulp); normalize() is
-# v * inversesqrt(v.v): 2 ulp and a product's rounding, 5 U of each component.
-EXP_ULPS, DIVISION_ULPS, SQRT_ULPS, NORMALIZE = 3.0, 2.5, 4.5, 5 * U
+# GLSL's precision of each operation is bounds.py's.
 
 
 def _norm(a):
@@ -158,22 +154,12 @@ def _contact(state, a, ea, d, ed, n, en, p):
         e_v2 = 2 * _along(turned, e_turned) + _norm(e_turned) ** 2 + 2 * U * v2
         e_an = _along(n, ea) + _along(a, en) + 2 * U * (np.abs(a * n).sum(axis=-1))
         e_depth = _along(n, ex) + ed
-        number = v2 - 2 * d * an
-        e_number = e_v2 + 2 * (e_depth * np.abs(an) + np.abs(d) * e_an + e_depth * e_an) \
-            + 3 * U * (v2 + 2 * np.abs(d * an))
-        scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
-        rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
-        magnitude = np.sqrt(np.maximum(number, 0))
-        e_magnitude = sqrt_error(number, e_number)
-        direction = turned / np.where(v2 > 0, np.sqrt(v2), 1)[:, None]
-        across = _perp(direction)
-        e_direction = np.abs(across) * np.minimum(2, _along(across, e_turned)
-                                                  / np.sqrt(v2))[:, None]
-        e_rescaled = (e_magnitude[:, None] * np.abs(direction) + magnitude[:, None] * e_direction
-                      + 2 * (SQRT_ULPS + DIVISION_ULPS + 1) * U * np.abs(rescaled))
-        # at rest in float64 the GPU's v may be off 0, and rescaled to any direction
-        e_rescaled = np.where((v2 > 0)[:, None], e_rescaled,
-                              np.sqrt(np.maximum(number + e_number, 0))[:, None])
+        def direction_error(direction):  # the error across it, over its length
+            side = _perp(direction)
+            return np.abs(side) * np.minimum(2, _along(side, e_turned) / np.sqrt(v2))[:, None]
+
+        rescaled, e_rescaled = push_out_rescale(turned, v2, e_v2, d, e_depth, an, e_an,
+                                                direction_error)
     return out, rescaled, e_out, e_rescaled
 
 

@@ -11,7 +11,8 @@ import pytest
 
 from PIL import Image
 
-from bounds import HASH_ERROR, TRIG_ERROR, U, codec_error, sqrt_error
+from bounds import (DIVISION_ULPS, EXP_ULPS, HASH_ERROR, NORMALIZE, TRIG_ERROR, U, codec_error,
+                    push_out_rescale)
 from es2particles.gl import astc
 from es2particles.cli import main
 from es2particles.errors import ParameterError
@@ -164,8 +165,6 @@ def _scatter(sim, rng, speed=3.0):
 # field's voxel, the sub-step count) the other branch's outcome. As tests/test_collision.py's,
 # in 3D, with the object's pose.
 
-EXP_ULPS, DIVISION_ULPS, SQRT_ULPS, NORMALIZE = 3.0, 2.5, 4.5, 5 * U
-
 
 def _norm(a):
     return np.linalg.norm(a, axis=-1)
@@ -253,19 +252,9 @@ def _respond(state, a, ea, d, ed, n, en, p, turn):
         e_v2 = 2 * _dot(turned, e_turned) + _norm(e_turned) ** 2 + 3 * U * v2
         e_an = _dot(n, ea) + _dot(a, en) + 3 * U * np.sum(np.abs(a * n), axis=1)
         e_depth = _dot(n, ex) + ed
-        number = v2 - 2 * d * an
-        e_number = e_v2 + 2 * (e_depth * np.abs(an) + np.abs(d) * e_an + e_depth * e_an) \
-            + 3 * U * (v2 + 2 * np.abs(d * an))
-        scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
-        rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
-        magnitude = np.sqrt(np.maximum(number, 0))
-        e_magnitude = sqrt_error(number, e_number)
-        direction = turned / np.where(v2 > 0, np.sqrt(v2), 1)[:, None]
-        e_direction = np.minimum(2, _across(direction, e_turned) / np.sqrt(v2)[:, None])
-        e_rescaled = (e_magnitude[:, None] * np.abs(direction) + magnitude[:, None] * e_direction
-                      + 2 * (SQRT_ULPS + DIVISION_ULPS + 1) * U * np.abs(rescaled))
-        e_rescaled = np.where((v2 > 0)[:, None], e_rescaled,
-                              np.sqrt(np.maximum(number + e_number, 0))[:, None])
+        rescaled, e_rescaled = push_out_rescale(
+            turned, v2, e_v2, d, e_depth, an, e_an,
+            lambda u: np.minimum(2, _across(u, e_turned) / np.sqrt(v2)[:, None]))
     return out, rescaled, e_out, e_rescaled
 
 

@@ -4,10 +4,11 @@ particle within a bound derived from the format and float32 (tests/bounds.py).""
 import numpy as np
 import pytest
 
-from bounds import U, half_code, rounding_error, trig_map_error
+from bounds import U, half_code, read_jitter, rounding_error, trig_map_error
 from conftest import run_scene
 from es2particles import Simulation
 from es2particles.cli import main
+from es2particles.gl.bindings import READ_SALTS
 from es2particles.scenes import Clifford
 from es2particles.scenes.clifford import clifford_map
 
@@ -72,19 +73,32 @@ def test_one_step_matches_float64(gl):
                    one_step_bound(scene, start, 3))
 
 
-def test_stateful_density_correlates_with_float64(gl):
-    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)  # stateful, dithered: the scene's defaults
+@pytest.mark.parametrize("rounding", ["jitter", "dither"])
+def test_stateful_density_correlates_with_float64(gl, rounding):
+    """Stateful, with jittered reads (the scene's default) or dithered writes. Under jitter each
+    step starts from the stored positions plus each read's offset within its code
+    (bounds.read_jitter); dithered, from the stored positions, and the write errs by a code."""
+    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)
+    assert scene.defaults.rounding == "jitter"
     steps = 20
-    dithered = scene.defaults.rounding == "dither"
-    with Simulation(gl, scene.graph(), 2 ** 18, rounding=scene.defaults.rounding) as sim:
+    x0, y0, x1, y1 = scene.range
+    with Simulation(gl, scene.graph(), 2 ** 18, rounding=rounding) as sim:
         scene.initialise(sim, np.random.default_rng(7))
+        texels = np.floor(sim.layout.texel_uv() * sim.layout.size)
         start = before = sim.download("position")
         for step in range(steps):  # step by step: the map is chaotic
+            if rounding == "jitter":
+                offsets, start_error = read_jitter(texels, sim.steps_done, READ_SALTS["pass"],
+                                                   (x1 - x0, y1 - y0))
+                seen, start_error = before + offsets, start_error.max(axis=1)
+            else:
+                seen, start_error = before, None
             sim.step()
             got = sim.download("position")
-            check_one_step(f"Clifford stateful step {step + 1}", scene, got,
-                           reference(scene, before, 3),
-                           one_step_bound(scene, before, 3, dithered=dithered))
+            check_one_step(f"Clifford stateful step {step + 1} ({rounding})", scene, got,
+                           reference(scene, seen, 3),
+                           one_step_bound(scene, seen, 3, dithered=rounding == "dither",
+                                          start_error=start_error))
             before = got
     exact = start.copy()
     for _ in range(steps):

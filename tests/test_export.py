@@ -168,13 +168,13 @@ def test_a_page_without_vertex_fetch_reads_the_state_back_and_counts_the_same(
         assert "not used" in web["facts"]["vertex texture fetch"], web["facts"]
         if isinstance(scene, DeJong):
             assert exact == 1.0
-        else:  # a stateful run's dithered writes part a few texels by a code (see below)
+        else:  # a stateful run's hashed roundings part a few texels by a code (see below)
             assert r >= 0.99
 
 
 def test_stateful_dejong_page_draws_the_same_attractor(gl, browser, tmp_path):
-    """Stateful runs round stochastically from a hash whose float arithmetic drivers may fuse
-    differently, and the map is chaotic: the particles part ways within a few steps, but the
+    """Stateful runs jitter their reads (the default) or round stochastically from a hash whose
+    float arithmetic drivers may fuse differently, and the map is chaotic: the particles part ways within a few steps, but the
     picture is the same attractor. Compared in 8x8-pixel blocks, which average out which
     particle lit which pixel."""
     scene, n, size, steps = DeJong(), 2 ** 18, (512, 512), 20
@@ -185,7 +185,7 @@ def test_stateful_dejong_page_draws_the_same_attractor(gl, browser, tmp_path):
         return d.reshape(64, 8, 64, 8).sum(axis=(1, 3)).ravel()
 
     r = np.corrcoef(blocks(web["density"]), blocks(counts))[0, 1]
-    print(f"stateful, dithered: block density correlation {r:.5f} after {steps} steps")
+    print(f"stateful, {scene.defaults.rounding}: block density correlation {r:.5f} after {steps} steps")
     assert r >= 0.999, f"block density correlation {r:.5f}"
 
 

@@ -74,7 +74,7 @@ def programs():
     post stages alike."""
     from es2particles.fields.field2d import CollisionField
     from es2particles.frame.plan import plan_frame, plan_graph
-    from es2particles.frame.settings import FrameSettings
+    from es2particles.frame.settings import ROUNDINGS, FrameSettings
     from es2particles.frame.state import FORMATS
     from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
     from es2particles.scenes.collision import RECT
@@ -93,7 +93,7 @@ def programs():
               "smoke-plain": Smoke(shadows="off", sort="off"), "smoke-spread": Smoke(sort="7")}
     out = {}
     for fmt in FORMATS:
-        for rounding in ("nearest", "dither"):
+        for rounding in ROUNDINGS:
             plans = [(name, plan_frame(scene, FrameSettings(format=fmt, rounding=rounding,
                                                             particles=4096, size=(64, 64))))
                      for name, scene in scenes.items()]

@@ -22,7 +22,7 @@ WebGL page (``export/``), which serialises it. Renderers are chosen by what the 
 :class:`~es2particles.render.sprites.Sprites`), never by a string.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -249,6 +249,13 @@ def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
     raise ParameterError(f"unknown frame value {name!r} (known: {', '.join(FRAME_VALUES)})")
 
 
+def _reads_state(stage):
+    """Whether ``stage`` reads a quantity: through a sampler or a read-back attribute."""
+    return bool(stage.attributes) or any(
+        source[0] == "quantity" for interface in (stage.interface, stage.vertex_interface)
+        if interface is not None for source in interface.samplers.values())
+
+
 def draw_defines(spec, rounding):
     """The defines of a pass's draws: the pass's own, and STATE_DITHER for dithered rounding."""
     return {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
@@ -410,6 +417,11 @@ class PlanBuilder:
         return vertices
 
     def stage(self, stage):
+        """Add ``stage``; under rounding "jitter" a stage that reads packed state is given what its
+        reads' jitter needs (STATE_JITTER and the step, lib/state.glsl), whoever declared it."""
+        if self.jittered_reads and _reads_state(stage):
+            stage = replace(stage, defines={**stage.defines, "STATE_JITTER": None},
+                            frame_uniforms={**stage.frame_uniforms, "u_step": ("step",)})
         if any(s.name == stage.name for s in self.stages):
             raise GraphError(f"two stages of the frame are named {stage.name!r}")
         for sampler, ref in stage.inputs.items():
@@ -424,6 +436,12 @@ class PlanBuilder:
                              "frame does not have")
         self.stages.append(stage)
         return stage
+
+    @property
+    def jittered_reads(self):
+        """Whether reads of packed state are jittered (rounding "jitter" in RGBA8): each needs
+        the texel it reads, a vertex stage too where it reads state back from attributes."""
+        return self.rounding == "jitter" and self.format == "rgba8"
 
     def particle_texels(self):
         """The name of the vertex data naming each particle's texel, added the first time."""

@@ -12,7 +12,7 @@ from ..errors import CapabilityError, ParameterError, check_range
 from ..params import Param
 from .state import FORMATS
 
-ROUNDINGS = ("nearest", "dither")
+ROUNDINGS = ("nearest", "dither", "jitter")
 AUTO_ORDER = ("rgba32f", "rgba16f", "rgba8")  # most precise first
 MAX_STEPS = 10 ** 7
 
@@ -143,7 +143,8 @@ SETTINGS = {d.name: d for d in (
              help="state storage format (rgba8: 16-bit packed; auto: the most precise one the "
                   "context can render to)"),
     _setting("rounding", None, choices=ROUNDINGS,
-             help="rounding of packed state on write (dither: stochastic, unbiased)"),
+             help="rounding of packed state (dither: stochastic on write, unbiased; jitter: "
+                  "nearest on write, each read offset within its code)"),
     _setting("steps", None, 0, MAX_STEPS, integer=True,
              help="simulation steps before the (first) frame"),
     _setting("seed", 0, 0, 2 ** 63 - 1, integer=True, help="seed of the starting state"),

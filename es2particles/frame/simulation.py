@@ -45,8 +45,11 @@ class Simulation:
         Storage format: ``rgba8`` (16-bit packed, default), ``rgba16f``, ``rgba32f``, or ``auto``
         (the most precise one the context can render to; ``format_note`` says which).
     rounding : str
-        How the packed format rounds on write: ``nearest``, or ``dither`` (stochastic, from a hash
-        of particle and step: deterministic, unbiased, so sub-code changes are not lost).
+        How the packed format rounds: ``nearest``; ``dither`` (stochastic on write, from a hash
+        of particle and step: deterministic, unbiased, so sub-code changes are not lost); or
+        ``jitter`` (nearest on write, and every read offset within its code by a hash of
+        particle and step: a value reads as a sample of its code's interval, so a chaotic map
+        keeps float32's statistics where a 16-bit grid would alias).
     """
 
     def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):

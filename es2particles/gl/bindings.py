@@ -32,6 +32,9 @@ from ..errors import GraphError, ParameterError, ShaderError
 from .shaders import GENERATED
 
 GLSL_TYPES = {1: "float", 2: "vec2", 3: "vec3", 4: "vec4"}
+# The last input of lib/state.glsl's read jitter, by reader, so that a pass's read and a draw's
+# read of the same state at the same step get independent offsets (a dithered write uses 17).
+READ_SALTS = {"pass": 29.0, "draw": 41.0}
 
 
 def glsl_type(name, value):
@@ -116,21 +119,26 @@ def _ranges(out, quantity):
         out.fixed.update(quantity.uniforms())
 
 
-def _reader(out, quantity, fmt, this_step):
+def _reader(out, quantity, fmt, this_step, salt):
     q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
     samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
     for part, sampler in enumerate(samplers):
         out.declare(f"uniform sampler2D {sampler};", sampler, f"part {part + 1} of quantity {q!r}")
         out.samplers[sampler] = ("quantity", q, part, this_step)
-    _read_function(out, q, c, fmt, [f"texture2D({s}, uv)" for s in samplers])
+    _read_function(out, q, c, fmt, [f"texture2D({s}, uv)" for s in samplers],
+                   None if quantity.storage else salt)
 
 
-def _read_function(out, q, c, fmt, texels):
+def _read_function(out, q, c, fmt, texels, salt):
     """``read_q(uv)`` from ``texels``, a GLSL vec4 expression per part: RGBA8 byte pairs
-    decoded into the range, floats as they are."""
+    decoded into the range (with the read's jitter, lib/state.glsl's state_jitter, under
+    rounding "jitter"; ``salt`` is :data:`READ_SALTS`' of the reader, None for a quantity
+    pinned to its storage, an exact clock, which reads its code), floats as they are."""
     if fmt == "rgba8":
-        decoded = [f"state_decode({t}, u_{q}_lo.{axes}, u_{q}_span.{axes})"
+        jitter = "" if salt is None else f", state_jitter(uv * u_state_size, {salt:.1f}).{{}}"
+        decoded = [f"state_{'decode' if salt is None else 'read'}({t}, u_{q}_lo.{axes}, "
+                   f"u_{q}_span.{axes}{jitter.format(axes)})"
                    for t, axes in zip(texels, ("xy", "zw"))]
         if c <= 2:
             body = decoded[0] + (".x" if c == 1 else "")
@@ -152,7 +160,7 @@ def _attribute_reader(out, quantity, fmt):
         out.declare(f"attribute vec4 {name};", name,
                     f"part {part + 1} of quantity {q!r}, read back")
         out.attributes[name] = (q, part)
-    _read_function(out, q, c, fmt, names)
+    _read_function(out, q, c, fmt, names, None if quantity.storage else READ_SALTS["draw"])
 
 
 def _writer(out, quantity, fmt, part):
@@ -208,9 +216,9 @@ def pass_interface(spec, quantities, fmt, part=0):
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     for name in spec.reads:
-        _reader(out, quantities[name], fmt, this_step=False)
+        _reader(out, quantities[name], fmt, False, READ_SALTS["pass"])
     for name in spec.reads_new:
-        _reader(out, quantities[name], fmt, this_step=True)
+        _reader(out, quantities[name], fmt, True, READ_SALTS["pass"])
     for name in spec.textures:
         out.declare(f"uniform sampler2D u_{name};", f"u_{name}", f"texture {name!r}")
         out.samplers[f"u_{name}"] = ("texture", name)
@@ -227,7 +235,7 @@ def stage_interface(reads, quantities, fmt, uniforms=None, attributes=False):
         if attributes:
             _attribute_reader(out, quantities[name], fmt)
         else:
-            _reader(out, quantities[name], fmt, this_step=False)
+            _reader(out, quantities[name], fmt, False, READ_SALTS["draw"])
     _own_uniforms(out, uniforms or {})
     return out
 

@@ -10,6 +10,9 @@
 // hold the value itself, clamped into [lo, hi], up to four per texel (state_clamp).
 // STATE_DITHER makes the packed format round stochastically, with noise from a hash of the texel
 // written (gl_FragCoord) and the step number: deterministic, different per particle and step.
+// STATE_JITTER (rounding "jitter") writes the nearest code and offsets every read of packed state
+// within its code, by a hash of the texel read and the step (state_jitter): a stored value reads
+// as a sample of the interval of values its code stands for, not as the interval's centre.
 #include "lib/pack.glsl"
 #include "lib/hash.glsl"
 
@@ -39,6 +42,32 @@ vec4 state_noise()
 vec2 state_decode(vec4 texel, vec2 lo, vec2 span)
 {
     return lo + unpack2x16(texel) * span;
+}
+
+// The offsets (in units of the range: a code is 1/65024) of the values at texel ``texel``
+// (integer coordinates, or a texel's centre), .xy for a quantity's first part and .zw for its
+// second. Uniform within the code, less DITHER_DEAD_ZONE each side: a value at rest, read and
+// written back to the nearest code, keeps its code, as float32 places the read to within the
+// dead zone. ``salt`` tells readers apart: a pass's read and a draw's of the same state get
+// independent offsets. Zero without STATE_JITTER. numpy twin: twins/pack.py, read_jitter().
+vec4 state_jitter(vec2 texel, float salt)
+{
+#ifdef STATE_JITTER
+    vec4 u = hash44(vec4(floor(texel), mod(u_step, 4096.0), floor(u_step / 4096.0) + salt));
+    return (u - 0.5) * ((1.0 - 2.0 * DITHER_DEAD_ZONE) / 65024.0);
+#else
+    return vec4(0.0);
+#endif
+}
+
+// One RGBA8 texel as a read sees it: decoded, plus its jitter (state_jitter) under STATE_JITTER.
+vec2 state_read(vec4 texel, vec2 lo, vec2 span, vec2 jitter)
+{
+#ifdef STATE_JITTER
+    return lo + (unpack2x16(texel) + jitter) * span;
+#else
+    return state_decode(texel, lo, span);
+#endif
 }
 
 vec4 state_encode(vec2 value, vec2 lo, vec2 span, vec2 noise)

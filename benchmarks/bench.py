@@ -658,6 +658,10 @@ def main(argv=None):
             if scene == "dask":
                 dask_section(emit, args.quick)
                 continue
+            if scene == "growth":  # cost against particles, image and sprite size: growth.py
+                from growth import growth_section
+                growth_section(ctx, emit, args.quick, args.repeats)
+                continue
             if scene == "upsample":
                 upsample_section(ctx, args.repeats, emit)
                 continue

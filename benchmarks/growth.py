@@ -51,9 +51,10 @@ import numpy as np
 SCENES = ("dejong", "clifford", "collision", "fountain", "collision3d", "confetti", "smoke")
 MID = 2 ** 16  # the particles of the image and sprite sweeps, and the emitters' warmed state
 SWEEPS = {  # name -> (axis label, the values, the quick run's)
-    "particles": ("particles", [2 ** k for k in range(10, 25, 2)], [2 ** 10, 2 ** 12, 2 ** 14]),
-    "image": ("image side (px)", [256, 512, 1024, 2048, 4096], [256, 512, 1024]),
-    "sprite": ("point_size (px)", [1, 2, 4, 8, 16, 32, 64], [1, 4, 16]),
+    "particles": ("particles (1024x1024)", [2 ** k for k in range(10, 25, 2)],
+                  [2 ** 10, 2 ** 12, 2 ** 14]),
+    "image": ("image side, px (2^16 particles)", [256, 512, 1024, 2048, 4096], [256, 512, 1024]),
+    "sprite": ("point_size, px (2^16, 1024x1024)", [1, 2, 4, 8, 16, 32, 64], [1, 4, 16]),
 }
 MEMORY_CAP = 3 * 2 ** 30
 # Stage kinds (plan.py: Stage.kind) timed together under one name; the others under their own.
@@ -403,9 +404,10 @@ def plots(curves, folder):
                             marker="x", markersize=6, color=colours[c.stage])
             ax.set_xscale("log", base=2)
             if which != "particles":
-                ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+                ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
+                    lambda v, _: f"{v:g}"))
             ax.set_yscale("log")
-            ax.set_xlabel(SWEEPS[which][0], fontsize=8)
+            ax.set_xlabel(SWEEPS[which][0].replace("2^16", "$2^{16}$"), fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(True, which="major", linewidth=0.3)
         axes[0][0].set_ylabel("ms", fontsize=8)

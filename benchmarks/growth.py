@@ -5,7 +5,8 @@ Options: ``--scenes dejong,smoke`` (default: the seven built-in scenes), ``--qui
 small points a sweep), ``--repeats 3``, ``--budget 60`` (seconds one particle count may take,
 predicted from the counts before it; half of it for an image or sprite size), ``--plots
 docs/benchmarks`` (a figure per scene, written there), ``--load out/bench/growth.json``
-(tables and plots from a run's numbers, nothing measured).
+(tables and plots from a run's numbers, nothing measured; of several files, comma-separated,
+each scene's from the last that has it).
 
 For each scene, through the public :class:`~es2particles.frame.pipeline.Pipeline` with the
 scene's defaults otherwise, one frame is timed stage by stage: the simulation step, each kind
@@ -27,7 +28,8 @@ says which sizes were left out and why.
 
 The particles are in their steady state when timed: the attractors run their 20 warm-up
 steps; the 2D collision is seeded as ``bench.collision_steady`` does (every particle alive,
-spread over the scene); an emitter scene (fountain, collision3d, confetti, smoke) runs its own
+spread over the scene; its candidates drawn 2^20 at a time, where bench's one draw peaks at
+5.3 GiB at 2^24); an emitter scene (fountain, collision3d, confetti, smoke) runs its own
 warm-up (one longest lifetime) once at 2^16 particles, and every count takes that state's
 texels, repeated (2^22 particles are 64 copies of each warmed one) or cut, with its step
 number: the 240 warm-up steps at 2^22 alone would take minutes here.
@@ -142,6 +144,27 @@ def stage_groups(plan):
     return [(name, tuple(dict.fromkeys(kinds))) for name, kinds in groups.items()]
 
 
+def collision_steady(p, rng, chunk=2 ** 20):
+    """bench.collision_steady's state (every particle alive, spread over the scene outside its
+    shapes, with emission-like speeds and ages), its candidate positions drawn and tested
+    ``chunk`` at a time: bench's one draw of 3N candidates and their distances peaks at 5.3 GiB
+    of host memory at 2^24 particles."""
+    sim, scene = p.sim, p.scene
+    n = sim.count
+    kept, have = [], 0
+    while have < n:
+        x = rng.uniform(-0.95, 0.95, (chunk, 2))
+        x = x[scene.field.exact_distance(x) > 0.01][: n - have]
+        kept.append(x)
+        have += len(x)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    speed = rng.uniform(0.5, 3.0, n)
+    life = rng.uniform(*scene.params.lifetime, n)
+    sim.upload("position", np.concatenate(kept))
+    sim.upload("velocity", np.stack([np.cos(angle), np.sin(angle)], 1) * speed[:, None])
+    sim.upload("life", np.stack([rng.uniform(0, 1, n) * life, life], 1))
+
+
 class Steady:
     """Puts a pipeline's particles in the scene's steady state (see the module's docstring)."""
 
@@ -152,12 +175,12 @@ class Steady:
     def how(self):
         if not self.emitter:
             return ("its 20 warm-up steps" if self.name != "collision"
-                    else "seeded as bench.collision_steady (every particle alive)")
+                    else "seeded as bench.collision_steady (every particle alive), its "
+                    "candidates drawn 2^20 at a time")
         return (f"its warm-up ({self.steps} steps) at 2^16, whose texels every count repeats "
                 "or cuts")
 
     def apply(self, p):
-        from bench import collision_steady
         from es2particles.frame.pipeline import Pipeline
         from es2particles.scenes import scene_class
 
@@ -265,7 +288,8 @@ def sweep(ctx, name, steady, which, values, repeats, budget, log=print):
         rows, said = measure(ctx, name, steady, repeats, **settings(x))
         walls.append(time.perf_counter() - start)
         done[x] = rows
-        log(f"  {name} {which} {label(which, x)}: {walls[-1]:.1f} s "
+        log(f"  {name} {which} {label(which, x)}: {walls[-1]:.1f} s, peak "
+            f"{peak_memory() / 2 ** 30:.1f} GiB; "
             + ", ".join(f"{k} {v[0] * 1e3:.1f}" for k, v in rows.items())
             + (f" (warned: {'; '.join(said)})" if said else ""))
         if said:
@@ -281,6 +305,13 @@ def sweep(ctx, name, steady, which, values, repeats, budget, log=print):
         total = [sum(done[x][s][0] for s in names) for x in xs]
         curves.append(Curve(name, TOTAL, which, xs, total, total, total))
     return curves, left_out
+
+
+def peak_memory():
+    """This process's peak resident memory so far, bytes."""
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def label(which, x):
@@ -462,7 +493,8 @@ def growth_section(ctx, emit, quick=False, repeats=3, scenes=SCENES, budget=60.0
                         log=lambda line: print(line, file=sys.stderr, flush=True))
     wall = time.perf_counter() - start
     report(curves, notes, both)
-    both(f"Wall time of the measurements: {wall:.0f} s")
+    both(f"Wall time of the measurements: {wall:.0f} s; the process's peak resident memory "
+         f"{peak_memory() / 2 ** 30:.1f} GiB")
     write(curves, notes, wall, lines)
     return curves
 
@@ -481,9 +513,15 @@ def main(argv=None):
     if unknown:
         parser.error(f"unknown scene(s) {', '.join(unknown)} (scenes: {', '.join(SCENES)})")
     if args.load:
-        data = json.loads(Path(args.load).read_text())
-        curves = [Curve(**c) for c in data["curves"] if c["scene"] in scenes]
-        report(curves, data["notes"], print)
+        # Several runs' numbers: each scene's from the last file that has it.
+        curves, notes = {}, {}
+        for path in args.load.split(","):
+            data = json.loads(Path(path).read_text())
+            for name, lines in data["notes"].items():
+                curves[name] = [Curve(**c) for c in data["curves"] if c["scene"] == name]
+                notes[name] = lines
+        curves = [c for name in scenes for c in curves.get(name, [])]
+        report(curves, notes, print)
     else:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from es2particles import open_context

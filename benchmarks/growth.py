@@ -65,11 +65,13 @@ TOTAL = "frame (sum)"
 
 # --- fitting (pure numpy: tests/test_growth_fit.py runs it with no GL) --------------------------
 
-# A bend is reported only where one line clearly misses and two segments clearly do not: the
-# line's RMS residual is at least 10% (above the run-to-run noise of these medians), the two
-# segments cut the residual sum of squares at least 4-fold (RMS halved), and the slopes differ
-# by at least 0.3. Five points at least: fewer leave the two segments' four numbers no test.
-BEND_RULE = dict(line_rms=0.10, rss_ratio=4.0, slope_change=0.3, points=5)
+# A bend is reported only where the curve grows and one line clearly misses it while two
+# segments do not: the exponent is at least 0.2 (a flat curve, a fixed cost, has no growth to
+# bend: its wiggles are noise, 20-40% on a stage of a millisecond or two here), the line's RMS
+# residual is at least 10% (above the run-to-run noise of these medians), the two segments cut
+# the residual sum of squares at least 4-fold (RMS halved), and the slopes differ by at least
+# 0.3. Five points at least: fewer leave the two segments' four numbers no test.
+BEND_RULE = dict(exponent=0.2, line_rms=0.10, rss_ratio=4.0, slope_change=0.3, points=5)
 
 
 @dataclass
@@ -111,7 +113,8 @@ def fit(xs, times, rule=BEND_RULE):
         return result
     knot, before, after, rss = hinge(x, y)
     result.hinge_rms = float(np.sqrt(rss / len(x)))
-    if (result.line_rms >= rule["line_rms"] and rss_line >= rule["rss_ratio"] * max(rss, 1e-300)
+    if (slope >= rule["exponent"] and result.line_rms >= rule["line_rms"]
+            and rss_line >= rule["rss_ratio"] * max(rss, 1e-300)
             and abs(after - before) >= rule["slope_change"]):
         result.bend, result.before, result.after = float(np.exp(knot)), before, after
     return result
@@ -403,6 +406,11 @@ def summary(curves, emit=print):
              f"{fmt_ms(c.times[-1])} at {label(c.sweep, c.xs[-1])} |")
 
 
+# A stage's colour in every figure (the particles' draw, whatever its kind, in one).
+COLOURS = {"step": "C0", "sort": "C1", "shadow": "C2", "mesh": "C7", "points": "C3",
+           "sprites": "C3", "quads": "C3", "post": "C4", "readback": "C5", TOTAL: "black"}
+
+
 def plots(curves, folder):
     """A figure per scene, written to ``folder/<scene>.png``: log-log, a panel per sweep, a line
     per stage (the frame's sum dashed), each bend marked."""
@@ -419,20 +427,17 @@ def plots(curves, folder):
         sweeps = [w for w in SWEEPS if any(c.scene == name and c.sweep == w for c in curves)]
         fig, axes = plt.subplots(1, len(sweeps), figsize=(3.0 * len(sweeps), 2.6), dpi=80,
                                  sharey=True, squeeze=False)
-        stages = list(dict.fromkeys(c.stage for c in curves if c.scene == name))
-        colours = {s: f"C{i}" for i, s in enumerate(s for s in stages if s != TOTAL)}
-        colours[TOTAL] = "black"
         for ax, which in zip(axes[0], sweeps):
             for c in (c for c in curves if c.scene == name and c.sweep == which):
                 ms = np.array(c.times) * 1e3
-                ax.plot(c.xs, ms, marker="o", markersize=2.5, linewidth=1.2,
-                        linestyle="--" if c.stage == TOTAL else "-", color=colours[c.stage],
-                        label=c.stage)
+                colour = COLOURS.get(c.stage, "C6")
+                ax.plot(c.xs, ms, marker="o", markersize=2.5, linewidth=1.2, color=colour,
+                        linestyle="--" if c.stage == TOTAL else "-", label=c.stage)
                 f = c.fit()
                 if f.bend is not None:
                     ax.plot([f.bend], [np.exp(np.interp(np.log(f.bend), np.log(c.xs),
                                                         np.log(ms)))],
-                            marker="x", markersize=6, color=colours[c.stage])
+                            marker="x", markersize=6, color=colour)
             ax.set_xscale("log", base=2)
             if which != "particles":
                 ax.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(
@@ -521,7 +526,12 @@ def main(argv=None):
                 curves[name] = [Curve(**c) for c in data["curves"] if c["scene"] == name]
                 notes[name] = lines
         curves = [c for name in scenes for c in curves.get(name, [])]
-        report(curves, notes, print)
+        lines = [f"Tables from {args.load} (nothing measured):", ""]
+        report(curves, notes, lambda line="": lines.append(line))
+        print("\n".join(lines))
+        out = Path("out/bench")
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "growth.md").write_text("\n".join(lines) + "\n")
     else:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from es2particles import open_context

@@ -58,6 +58,9 @@ SWEEPS = {  # name -> (axis label, the values, the quick run's)
     "image": ("image side, px (2^16 particles)", [256, 512, 1024, 2048, 4096], [256, 512, 1024]),
     "sprite": ("point_size, px (2^16, 1024x1024)", [1, 2, 4, 8, 16, 32, 64], [1, 4, 16]),
 }
+TITLES = {"particles": "Against particles, at 1024x1024",
+          "image": "Against the image side, at 2^16 particles",
+          "sprite": "Against point_size, at 2^16 particles and 1024x1024"}
 MEMORY_CAP = 3 * 2 ** 30
 # Stage kinds (plan.py: Stage.kind) timed together under one name; the others under their own.
 KIND_NAMES = {"sort key": "sort", "sort merge": "sort", "shadow map": "shadow"}
@@ -374,7 +377,7 @@ def tables(curves, notes, emit=print):
             if not mine:
                 continue
             xs = mine[0].xs
-            emit(f"{which} ({SWEEPS[which][0]}), ms:")
+            emit(f"{TITLES[which]}, ms:")
             emit()
             emit("| stage | " + " | ".join(label(which, x) for x in xs)
                  + " | exponent | bend | slopes |")

@@ -75,3 +75,16 @@ def test_bloom_spreads_light_around_bright_regions_and_zero_bloom_changes_nothin
 def test_same_arguments_same_image(gl):
     assert np.array_equal(render(gl, seed=3), render(gl, seed=3))
     assert not np.array_equal(render(gl, seed=3), render(gl, seed=4))
+
+
+@pytest.mark.parametrize("size", [0, 100, 2 ** 20 - 1, 2 ** 21 + 7, 5 * 2 ** 20 + 3])
+def test_deflate_in_pieces_inflates_to_the_same_bytes(size):
+    """Large data is deflated in pieces on threads and joined into one zlib stream: the standard
+    inflater must give back every byte, at every level."""
+    import zlib
+
+    from es2particles.io.output import deflate
+
+    data = np.random.default_rng(size).integers(0, 6, size, dtype=np.uint8).tobytes()
+    for level in (0, 1, 6, 9):
+        assert zlib.decompress(deflate(data, level)) == data, (size, level)

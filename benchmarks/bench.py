@@ -177,9 +177,11 @@ def whole_command(emit, rounds):
     compileall.compile_dir(here, quiet=1)
     ours, numpy_script, stages = [], [], []
     with tempfile.TemporaryDirectory() as tmp:
+        # Each process starts in the temporary folder: `-m es2particles.cli` from a clone's root
+        # would import the clone's sources (uncompiled) instead of the installed package.
         def wall(args):
             start = time.perf_counter()
-            subprocess.run(args, check=True, capture_output=True)
+            subprocess.run(args, check=True, capture_output=True, cwd=tmp)
             return time.perf_counter() - start
         command = [sys.executable, "-m", "es2particles.cli", *ARTICLE_COMMAND,
                    "--out", f"{tmp}/a.png"]
@@ -192,7 +194,7 @@ def whole_command(emit, rounds):
         for _ in range(max(3, rounds // 2)):
             out = subprocess.run([sys.executable, str(here / "startup.py"), *ARTICLE_COMMAND,
                                   "--out", f"{tmp}/c.png"], check=True, capture_output=True,
-                                 text=True).stdout
+                                 text=True, cwd=tmp).stdout
             stages.append(json.loads(out))
     med = statistics.median
     pairs = [n / o for n, o in zip(numpy_script, ours)]

@@ -387,7 +387,7 @@ def upsample_section(ctx, repeats, emit):
 
     reference, full, camera = render()
     edges = sphere_edges(camera, size)
-    emit(f"| buffer | upsample | edge error | elsewhere | frame ms | saved |")
+    emit("| buffer | upsample | edge error | elsewhere | frame ms | saved |")
     emit("|---|---|---|---|---|---|")
     emit(f"| 1 | - | 0 | 0 | {fmt_ms(full)} | - |")
     for scale in (0.5, 0.25):

@@ -52,10 +52,12 @@ class Executor:
                 else:
                     self.resources[resource.name] = self._make(resource)
             for vertices in plan.vertices.values():
-                self.buffers[vertices.name] = self.group.buffer(vertices.array().tobytes())
+                # The arrays' own memory, not a bytes copy: 8 MB less to copy and fault in at
+                # 2^20 particles' texels (~4 ms of a still's start), 128 MB at 2^24.
+                self.buffers[vertices.name] = self.group.buffer(_raw(vertices.array()))
                 if vertices.indexed:
                     self.buffers[(vertices.name, "indices")] = self.group.buffer(
-                        vertices.index_array().tobytes())
+                        _raw(vertices.index_array()))
             for stage in plan.stages:
                 self.commands[stage.name] = self._command(stage)
         except Exception:
@@ -276,3 +278,8 @@ class Executor:
 
     def __exit__(self, *exc):
         self.release()
+
+
+def _raw(array):
+    """The bytes of a C-contiguous array as a flat memoryview (no copy)."""
+    return memoryview(np.ascontiguousarray(array)).cast("B")

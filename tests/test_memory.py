@@ -255,6 +255,24 @@ def test_2_to_the_26_particles_under_4_gib_are_refused_up_front(tmp_path, scene,
 
 
 @pytest.mark.gl
+def test_the_smoke_s_sort_order_is_made_after_the_check(tmp_path):
+    """Smoke at its most particles, 2^24, under 2 GiB: its sort order's first contents (~0.6 GB
+    to make, 1.6 GB before their encoding was cut) were made in the plan, so the run ended in a
+    MemoryError after 3.8 s at 1.1 GiB resident; now they are made with the texture, and the run
+    is refused up front."""
+    folder = tmp_path / "out"
+    folder.mkdir()
+    status, _, err, peak, seconds = limited(
+        [*COMMAND, "smoke", "--particles", str(2 ** 24), "--size", "64x64",
+         "--out", str(folder / "x.png")], tmp_path / "logs", limit=2 * 1024 * MiB, cwd=folder)
+    assert status == 2, err
+    assert err.startswith("es2particles: error: --particles 16777216 needs about "), err
+    assert list(folder.iterdir()) == []
+    assert peak < 512 * MiB, f"peak {peak / MiB:.0f} MiB before the refusal"
+    assert seconds < 30
+
+
+@pytest.mark.gl
 @pytest.mark.parametrize("scene", ["dejong", "fountain"])
 def test_2_to_the_20_particles_run_under_the_same_limit(tmp_path, scene):
     out = tmp_path / "x.png"

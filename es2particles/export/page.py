@@ -252,7 +252,7 @@ def _resource(r, layout, start):
         entry["astc"] = {"block": list(c.block), "internal_format": c.internal_format,
                          "data": _bytes(np.frombuffer(c.data, np.uint8))}
         return entry
-    data = np.asarray(r.data)
+    data = np.asarray(r.contents())
     entry["type"] = "bytes" if data.dtype == np.uint8 else "float"
     entry["data"] = _bytes(data.astype(np.uint8 if entry["type"] == "bytes" else np.float32))
     return entry

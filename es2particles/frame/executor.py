@@ -76,12 +76,11 @@ class Executor:
         if r.kind == "image":
             if not isinstance(r.data, np.ndarray):  # ASTC blocks
                 return self.group.compressed_texture(r.data)
-            data = np.ascontiguousarray(r.data)
-            return self.group.texture(r.size, r.format, data=data.tobytes(),
+            return self.group.texture(r.size, r.format, data=_raw(r.contents()),
                                       filter_nearest=not r.linear)
         target = Textures(self.group, r.size, r.format, r.parts, r.buffers, r.depth, r.linear)
         if r.data is not None:
-            self.ctx.write(target.fronts[0], np.ascontiguousarray(r.data).tobytes())
+            self.ctx.write(target.fronts[0], _raw(r.contents()))
         return target
 
     def _command(self, stage):

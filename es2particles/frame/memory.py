@@ -88,6 +88,9 @@ PACK_FLOAT_FIXED = 16
 IMAGE_READ = 16  # bytes a pixel: the picture read back (4), as RGB (3, twice), PNG rows (3, twice)
 TILE_ORDER = 48  # bytes a particle: download, sort and rewrite of the texel order (measured 48)
 TEXEL_VERTEX = 8  # a particle's texel centre, two float32
+# bytes a texel while a function makes a target's first contents (the sort order's identity:
+# measured 40 a slot in rgba8, 36 in rgba32f); the contents are then held until uploaded
+MAKING = 40
 DRIVER = 32 * MiB  # compiled shaders and the driver's own (10-21 MiB resident, <= 63 MiB virtual)
 BINS = 24  # bytes a particle drawn of llvmpipe's bins, up to BINS_MAX (12 MiB at 2^20 points)
 BINS_MAX = 128 * MiB  # (measured ~100-105 MiB at 2^22 and 2^24 points)
@@ -198,7 +201,11 @@ def estimate(plan, animation=None):
             held.add("targets", PARTICLES if r.swap == "draw" else SIZE, r.nbytes)
         else:
             held.add("textures", None, r.nbytes)
-        if r.data is not None:
+        if callable(r.data):  # made after the check, at the texture's making
+            w, h = r.size
+            option = PARTICLES if r.swap == "draw" else None
+            peaks.largest("making", option, w * h * MAKING)
+        elif r.data is not None:
             made += getattr(r.data, "nbytes", 0)
             peaks.largest("making", None, getattr(r.data, "nbytes", 0))  # its tobytes copy
     states = [r for r in plan.resources.values() if r.kind == "state"]

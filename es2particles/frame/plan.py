@@ -56,7 +56,8 @@ class Resource:
 
     ``kind``: ``state`` (a quantity, ``quantity`` its declaration), ``image`` (uploaded once from
     ``data``: an (h, w, 4) uint8 or float32 array, or ASTC blocks) or ``target`` (drawn into; with
-    ``depth``, a depth buffer beside it; ``data``, if given, its first contents). ``swap``:
+    ``depth``, a depth buffer beside it; ``data``, if given, its first contents, or a function
+    making them when the texture is made, after the run's memory is checked). ``swap``:
     ``step`` (the pair swaps at the end of each step: state) or ``draw`` (after each draw into it:
     a sort order). ``linear``: sampled with linear filtering (never packed state)."""
 
@@ -72,6 +73,10 @@ class Resource:
     data: object = field(default=None, repr=False, compare=False)
     quantity: object = None
     what: str = ""
+
+    def contents(self):
+        """The first contents: ``data``, or what its function makes."""
+        return self.data() if callable(self.data) else self.data
 
     @property
     def nbytes(self):

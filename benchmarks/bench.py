@@ -523,6 +523,16 @@ def noise(density, reference):
     return float(np.sqrt(np.sum((d - r) ** 2) / np.sum(r ** 2)))
 
 
+def numpy_counts(p, view, size=SIZE):
+    """The numpy peer's binning: the count of points ``p`` (n, 2) float32 on each pixel of
+    ``view`` (flat, row 0 at the bottom), by floor, edges clamped in."""
+    w, h = size
+    x0, y0, x1, y1 = view
+    i = ((p[:, 0] - x0) * np.float32(w / (x1 - x0))).astype(np.int32).clip(0, w - 1)
+    j = ((p[:, 1] - y0) * np.float32(h / (y1 - y0))).astype(np.int32).clip(0, h - 1)
+    return np.bincount(j * w + i, minlength=w * h)
+
+
 def accumulation_section(ctx, emit, quick):
     """Image noise against a float64 reference, as a function of samples and time: ours with
     --accumulate K, and numpy (and datashader where installed) summing the same K steps of 2^20
@@ -532,7 +542,6 @@ def accumulation_section(ctx, emit, quick):
     reference_samples = 10 ** 8 if quick else 10 ** 9
     scene = DeJong()
     w, h = SIZE
-    x0, y0, x1, y1 = scene.view
     reference = dejong_reference(reference_samples, SIZE, scene.view)
     count = 2 ** 20
 
@@ -541,9 +550,7 @@ def accumulation_section(ctx, emit, quick):
         for sample in range(k):
             if sample:
                 job.step()
-            i = ((job.p[:, 0] - x0) * np.float32(w / (x1 - x0))).astype(np.int32).clip(0, w - 1)
-            j = ((job.p[:, 1] - y0) * np.float32(h / (y1 - y0))).astype(np.int32).clip(0, h - 1)
-            counts += np.bincount(j * w + i, minlength=w * h)
+            counts += numpy_counts(job.p, scene.view)
         return counts.reshape(h, w)
 
     emit(f"Image noise (relative RMS of the normalised density against a float64 reference of "
@@ -685,12 +692,9 @@ def sample_section(ctx, emit, repeats):
     ceiling = ceiling_draws(ctx, count, repeats)
     job = NumpyDeJong(count)
     w, h = SIZE
-    x0, y0, x1, y1 = scene.view
 
     def bin_numpy():
-        i = ((job.p[:, 0] - x0) * np.float32(w / (x1 - x0))).astype(np.int32).clip(0, w - 1)
-        j = ((job.p[:, 1] - y0) * np.float32(h / (y1 - y0))).astype(np.int32).clip(0, h - 1)
-        return np.bincount(j * w + i, minlength=w * h)
+        return numpy_counts(job.p, scene.view)
     rows["numpy float32"] = (timed(job.step, repeats), timed(bin_numpy, repeats),
                              timed(lambda: (job.step(), bin_numpy()), repeats))
     ds_job = datashader_counts(count, scene.view)
@@ -709,12 +713,12 @@ def sample_section(ctx, emit, repeats):
         emit(f"| {name} | {fmt_ms(step)} | {fmt_ms(binning)} | {fmt_ms(both)} | "
              f"{both[0] / ours:.2f} |")
     emit()
+    draw = rows["ours, jitter"][1]
     emit(f"The ceiling of llvmpipe's point path, {count} points with no fetch, decode or hash "
          f"(a vertex buffer, a constant colour): drawn in one call {fmt_ms(ceiling['drawn'])} "
          f"ms, in slices as ours {fmt_ms(ceiling['sliced'])} ms, all clipped (the vertex stage "
          f"alone) {fmt_ms(ceiling['clipped'])} ms. Ours draws in "
-         f"{fmt_ms(rows['ours, jitter'][1])} ms, {rows['ours, jitter'][1][0] / ceiling['sliced'][0]:.2f}x "
-         "the sliced ceiling.")
+         f"{fmt_ms(draw)} ms, {draw[0] / ceiling['sliced'][0]:.2f}x the sliced ceiling.")
 
 
 def fmt_ms(t):

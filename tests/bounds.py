@@ -133,22 +133,17 @@ HASH_ERROR = _hash_error()
 
 def read_jitter(texels, step, salt, span, part=0):
     """What a read under rounding "jitter" adds to each stored value, and how well that is known:
-    (offsets (n, 2) in world units, their errors (n, 2)) for particles at integer ``texels`` (n, 2) at
-    step ``step``, a reader of ``salt`` (bindings.READ_SALTS), a range of ``span`` per axis, and
+    (offsets (n, 2) in world units, their errors (n, 2)) for particles at integer ``texels``
+    (n, 2) at step ``step``, a reader of ``salt`` (bindings.READ_SALTS), a range of ``span`` per
+    axis, and
     a quantity's ``part`` (0: its first texel, the hash's first two outputs; 1: the last two).
-    The offset spreads the hash's u (twins/life.py's hash44) uniformly over the code less its
+    The offset spreads the hash's u (twins/life.py's step_hash) uniformly over the code less its
     dead zone each side: (u - 1/2)(1 - 2/64) codes. The GPU's u is within HASH_ERROR of the
     twin's round the circle; where the twin's is within HASH_ERROR of 0 or 1 the GPU's may have
     wrapped to the other end, so that particle's offset is known only to the whole spread."""
-    from es2particles.twins.life import hash44
+    from es2particles.twins.life import step_hash
 
-    step = np.float32(step)
-    columns = np.broadcast_to([np.fmod(step, np.float32(4096)),
-                               np.floor(step / np.float32(4096)) + np.float32(salt)],
-                              np.shape(texels))
-    u = hash44(np.concatenate([np.asarray(texels, np.float32), columns], axis=-1))
-    u = u[:, 2 * part:2 * part + 2]
-    u = u.astype(np.float64)
+    u = step_hash(texels, step, salt)[:, 2 * part:2 * part + 2].astype(np.float64)
     spread = (1 - 2 / 64) / CODES * np.asarray(span, float)  # world units a unit of u moves
     wraps = np.minimum(u, 1 - u) < HASH_ERROR
     error = np.where(wraps, spread, HASH_ERROR * spread) + 2 * U * np.abs(span)

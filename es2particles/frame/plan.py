@@ -261,11 +261,6 @@ def _reads_state(stage):
         if interface is not None for source in interface.samplers.values())
 
 
-def draw_defines(spec, rounding):
-    """The defines of a pass's draws: the pass's own, and STATE_DITHER for dithered rounding."""
-    return {**({"STATE_DITHER": None} if rounding == "dither" else {}), **spec.defines}
-
-
 # --- the plan -----------------------------------------------------------------------------------
 
 @dataclass
@@ -422,8 +417,11 @@ class PlanBuilder:
         return vertices
 
     def stage(self, stage):
-        """Add ``stage``; under rounding "jitter" a stage that reads packed state is given what its
-        reads' jitter needs (STATE_JITTER and the step, lib/state.glsl), whoever declared it."""
+        """Add ``stage``, with what the state's rounding asks of it, whoever declared it
+        (lib/state.glsl): STATE_DITHER for a pass, which writes state, under rounding "dither";
+        STATE_JITTER and the step for a stage that reads packed state under "jitter"."""
+        if self.rounding == "dither" and stage.step:
+            stage = replace(stage, defines={"STATE_DITHER": None, **stage.defines})
         if self.jittered_reads and _reads_state(stage):
             stage = replace(stage, defines={**stage.defines, "STATE_JITTER": None},
                             frame_uniforms={**stage.frame_uniforms, "u_step": ("step",)})
@@ -509,8 +507,7 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
     for spec, part, parts in plan.draws(fmt):
         interface = pass_interface(spec, graph.quantities, fmt, part)
         stage_name = spec.stage(part)
-        defines = draw_defines(spec, rounding)
-        source = expand(spec.frag, defines, interface.lines, interface.epilogue)
+        source = expand(spec.frag, spec.defines, interface.lines, interface.epilogue)
         _, referenced = _names(source)
         for sampler, (kind, what) in ((n, v[:2]) for n, v in interface.samplers.items()):
             call = f"read_{what}" if kind == "quantity" else sampler
@@ -520,7 +517,7 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
         q = plan.quantities[spec.writes]
         what = f"part {part + 1}/{parts} ({q.part_axes(fmt, part)})" if parts > 1 else ""
         builder.stage(Stage(
-            stage_name, "pass", spec.frag, defines=defines, interface=interface,
+            stage_name, "pass", spec.frag, defines=dict(spec.defines), interface=interface,
             inputs=builder.state_inputs(interface), target=Ref(spec.writes, part),
             uniforms={name: uniform_value(name, value, interface.uniforms[name])
                       for name, value in spec.uniforms.items()},

@@ -136,10 +136,12 @@ def _read_function(out, q, c, fmt, texels, salt):
     rounding "jitter"; ``salt`` is :data:`READ_SALTS`' of the reader, None for a quantity
     pinned to its storage, an exact clock, which reads its code), floats as they are."""
     if fmt == "rgba8":
-        jitter = "" if salt is None else f", state_jitter(uv * u_state_size, {salt:.1f}).{{}}"
-        decoded = [f"state_{'decode' if salt is None else 'read'}({t}, u_{q}_lo.{axes}, "
-                   f"u_{q}_span.{axes}{jitter.format(axes)})"
-                   for t, axes in zip(texels, ("xy", "zw"))]
+        def decode(t, axes):
+            ranges = f"u_{q}_lo.{axes}, u_{q}_span.{axes}"
+            if salt is None:
+                return f"state_decode({t}, {ranges})"
+            return f"state_read({t}, {ranges}, state_jitter(uv * u_state_size, {salt:.1f}).{axes})"
+        decoded = [decode(t, axes) for t, axes in zip(texels, ("xy", "zw"))]
         if c <= 2:
             body = decoded[0] + (".x" if c == 1 else "")
         else:

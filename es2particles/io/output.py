@@ -537,8 +537,9 @@ def encode_png(pixels, compress_level=1):
 
     Written here rather than through pillow for speed: pillow tries every row filter, which is
     most of its 43 ms for a 1024x1024 frame at level 1. Unfiltered rows deflate in ~26 ms on one
-    thread (15-20 on two, :func:`deflate`), and for these pictures (large dark regions, smooth ramps) to smaller files too: 453 against
-    639 KB for the de Jong frame. Tests decode the result with pillow.
+    thread (15-20 on two, :func:`deflate`), and for these pictures (large dark regions, smooth
+    ramps) to smaller files too: 453 against 639 KB for the de Jong frame. Tests decode the result
+    with pillow.
     """
     import struct
     import zlib

@@ -64,10 +64,17 @@ def life_random(uv, step, state_size):
     """``life_random``: four numbers in [0, 1) per particle for texel coordinates ``uv`` (N, 2)
     and step number ``step`` (float32, as the GPU)."""
     texel = np.floor(np.asarray(uv, np.float32) * np.asarray(state_size, np.float32))
+    return step_hash(texel, step, 0.0)
+
+
+def step_hash(texel, step, salt):
+    """``step_hash`` (lib/state.glsl): four numbers in [0, 1) for integer texels ``texel``
+    (N, 2) at step number ``step`` and ``salt`` (float32, as the GPU)."""
     step = np.float32(step)
-    columns = np.broadcast_to([np.fmod(step, np.float32(4096)), np.floor(step / np.float32(4096))],
-                              texel.shape)
-    return hash44(np.concatenate([texel, columns], axis=-1))
+    columns = np.broadcast_to([np.fmod(step, np.float32(4096)),
+                               np.floor(step / np.float32(4096)) + np.float32(salt)],
+                              np.shape(texel))
+    return hash44(np.concatenate([np.asarray(texel, np.float32), columns], axis=-1))
 
 
 def hash44(p4):

@@ -125,22 +125,6 @@ def state_encode(value, lo, span, fmt="rgba8"):
     return out
 
 
-def state_jitter(texel, step, salt):
-    """``state_jitter``: the read offsets (..., 4) in units of the range (a code is 1/65024) of
-    the values at integer texel coordinates ``texel`` (..., 2) at step ``step`` for a reader of
-    ``salt`` (bindings.READ_SALTS), float32 as the GPU: .xy for a quantity's first part, .zw for
-    its second. Under rounding "jitter" a read sees ``state_decode(...) + offset * span``."""
-    from .life import hash44
-
-    texel = np.floor(np.asarray(texel, F32))
-    step = F32(step)
-    columns = np.broadcast_to([np.fmod(step, F32(4096)), np.floor(step / F32(4096)) + F32(salt)],
-                              texel.shape)
-    u = hash44(np.concatenate([texel, columns], axis=-1))
-    return ((u - F32(0.5)) * ((F32(1) - F32(2) * DITHER_DEAD_ZONE) / F32(CODES_PER_UNIT))
-            ).astype(F32)
-
-
 def state_decode(texels, lo, span, fmt="rgba8"):
     """World values (..., c) as float32 from texel contents (..., parts, 4), c = len(lo)."""
     c = len(lo)

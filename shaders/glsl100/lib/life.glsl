@@ -28,8 +28,7 @@ bool life_alive(vec2 life)
 // Four numbers in [0, 1) for this particle and step (the emission's randomness).
 vec4 life_random(vec2 uv)
 {
-    vec2 texel = floor(uv * u_state_size);
-    return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0)));
+    return step_hash(floor(uv * u_state_size), 0.0);
 }
 
 // True where a particle of last step's ``life`` is born or dies during the step of length dt

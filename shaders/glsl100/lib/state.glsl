@@ -18,6 +18,15 @@
 
 uniform float u_step;  // the step being computed (set by the simulation)
 
+// Four numbers in [0, 1) for integer texel ``texel`` at this step: the randomness of every
+// per-particle, per-step choice (emission, dithered writes, jittered reads), each kind told
+// apart by its ``salt``. The step goes in as two inputs below 4096 (hash44's precision).
+// numpy twin: twins/life.py, step_hash().
+vec4 step_hash(vec2 texel, float salt)
+{
+    return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0) + salt));
+}
+
 vec2 state_unit(vec2 value, vec2 lo, vec2 span)
 {
     return clamp_unit((value - lo) / span);
@@ -28,8 +37,7 @@ vec2 state_unit(vec2 value, vec2 lo, vec2 span)
 // of a quantity, .zw the second.
 vec4 state_noise()
 {
-    vec2 texel = floor(gl_FragCoord.xy);
-    return hash44(vec4(texel, mod(u_step, 4096.0), floor(u_step / 4096.0) + 17.0));
+    return step_hash(floor(gl_FragCoord.xy), 17.0);
 }
 #else
 vec4 state_noise()
@@ -49,11 +57,12 @@ vec2 state_decode(vec4 texel, vec2 lo, vec2 span)
 // second. Uniform within the code, less DITHER_DEAD_ZONE each side: a value at rest, read and
 // written back to the nearest code, keeps its code, as float32 places the read to within the
 // dead zone. ``salt`` tells readers apart: a pass's read and a draw's of the same state get
-// independent offsets. Zero without STATE_JITTER. numpy twin: twins/pack.py, read_jitter().
+// independent offsets. Zero without STATE_JITTER. The tests compute it from step_hash's twin:
+// tests/bounds.py, read_jitter().
 vec4 state_jitter(vec2 texel, float salt)
 {
 #ifdef STATE_JITTER
-    vec4 u = hash44(vec4(floor(texel), mod(u_step, 4096.0), floor(u_step / 4096.0) + salt));
+    vec4 u = step_hash(floor(texel), salt);
     return (u - 0.5) * ((1.0 - 2.0 * DITHER_DEAD_ZONE) / 65024.0);
 #else
     return vec4(0.0);

@@ -96,3 +96,26 @@ def test_formats_are_probed_when_first_asked_for_and_alike_either_way():
             assert f"{fmt} render target / additive blend" in report
             assert lazy.caps.renderable[fmt] == full.caps.renderable[fmt]
             assert lazy.caps.blendable[fmt] == full.caps.blendable[fmt]
+
+
+@pytest.mark.gl
+def test_egl_libraries_named_and_found_again_where_missing(monkeypatch):
+    """On Linux the EGL back-end is given the libraries' usual names (no `ldconfig -p` run);
+    where a name does not load, the context is asked for again the way glcontext finds them."""
+    real = moderngl.create_context
+    asked = []
+
+    def missing_soname(**kwargs):
+        asked.append(kwargs.get("libegl"))
+        if kwargs.get("libegl"):
+            raise Exception(f"{kwargs['libegl']} not loaded")
+        return real(**kwargs)
+
+    monkeypatch.setattr(moderngl, "create_context", missing_soname)
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
+    ctx = context_module.open_context()
+    try:
+        assert asked == ["libEGL.so.1", None]
+        assert ctx.caps.renderer
+    finally:
+        ctx.release()

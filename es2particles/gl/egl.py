@@ -9,6 +9,7 @@ can be rendered to and blended into (a draw into a 4x4 target of it).
 """
 
 import os
+import sys
 
 import numpy as np
 
@@ -67,7 +68,7 @@ def open_context(device=None):
         errors = []
         for profile, version in _profiles():
             try:
-                mgl = moderngl.create_context(require=version, **kwargs)
+                mgl = _create(moderngl, require=version, **kwargs)
             except Exception as error:  # the binding raises bare Exceptions with the loader's words
                 errors.append(str(error).strip() or type(error).__name__)
                 continue
@@ -79,6 +80,24 @@ def open_context(device=None):
         failures.append(f"{backend or 'default'}: " + "; ".join(unique))
     raise ContextError("no headless OpenGL context could be made; " + INSTALL_HINT
                        + " (tried: " + "; ".join(" ".join(f.split()) for f in failures) + ")")
+
+
+# The libraries' names every Linux GL install has (glvnd's and Mesa's alike): given, they spare
+# glcontext its ctypes.util.find_library, which runs `ldconfig -p` twice (~5 ms of a still's
+# start). glcontext's GLCONTEXT_LINUX_LIBGL / _LIBEGL still choose others.
+LINUX_LIBRARIES = {"libgl": "libGL.so.1", "libegl": "libEGL.so.1"}
+
+
+def _create(moderngl, **kwargs):
+    """moderngl.create_context, naming the EGL back-end's libraries on Linux; where one is not
+    found under its name, asking again as glcontext would (find_library)."""
+    if kwargs.get("backend") == "egl" and sys.platform.startswith("linux"):
+        try:
+            return moderngl.create_context(**kwargs, **LINUX_LIBRARIES)
+        except Exception as error:  # glcontext says "libEGL.so.1 not loaded"
+            if not any(f"{name} not loaded" in str(error) for name in LINUX_LIBRARIES.values()):
+                raise
+    return moderngl.create_context(**kwargs)
 
 
 def probe_capabilities(ctx):

@@ -1,6 +1,7 @@
 """The headless context: its capability report, the store-rule probe, and a clear error without GL."""
 
 import moderngl
+import numpy as np
 import pytest
 
 import es2particles.gl.egl as context_module
@@ -119,3 +120,33 @@ def test_egl_libraries_named_and_found_again_where_missing(monkeypatch):
         assert ctx.caps.renderer
     finally:
         ctx.release()
+
+
+@pytest.mark.parametrize("size", [(7, 5), (64, 32)])
+def test_rgb_read_is_the_texture_without_alpha_rows_flipped(gl, size):
+    """read_rgb asks the driver for RGB alone (odd widths too: rows packed, alignment 1), then
+    puts the top row first: against numpy's slice of the uploaded bytes."""
+    from es2particles.frame.pipeline import read_rgb
+
+    w, h = size
+    texels = np.random.default_rng(w).integers(0, 256, (h, w, 4), dtype=np.uint8)
+    group = gl.group()
+    try:
+        tex = group.texture(size, "rgba8", data=texels.tobytes())
+        assert np.array_equal(
+            np.frombuffer(gl.read(tex, components=3), np.uint8).reshape(h, w, 3),
+            texels[:, :, :3])
+        image = read_rgb(gl, tex)
+        assert image.flags.writeable and image.flags.c_contiguous
+        assert np.array_equal(image, texels[::-1, :, :3])
+    finally:
+        group.release()
+
+
+def test_recording_device_reads_the_first_components(recording):
+    """The recording device's read of fewer components slices what was written, texel by
+    texel, as the GL one does."""
+    texels = np.arange(3 * 2 * 4, dtype=np.uint8).reshape(2, 3, 4)
+    tex = recording.texture((3, 2), "rgba8", data=texels.tobytes())
+    assert recording.read(tex, components=3) == texels[:, :, :3].tobytes()
+    assert recording.read(tex) == texels.tobytes()

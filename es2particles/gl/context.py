@@ -318,10 +318,11 @@ class Context:
         """Clear ``framebuffer`` to ``colour`` (and its depth buffer to ``depth``)."""
         self.device.clear(framebuffer, tuple(float(c) for c in colour), depth)
 
-    def read(self, texture):
-        """A texture's bytes, row 0 (GL's bottom row) first."""
+    def read(self, texture, components=None):
+        """A texture's bytes, row 0 (GL's bottom row) first; ``components``: only the first
+        ones of each texel (RGB of an RGBA texture), packed."""
         self.make_current()
-        return self.device.read(texture)
+        return self.device.read(texture, components)
 
     def write(self, obj, data):
         """Replace a texture's or buffer's contents with ``data`` (bytes)."""

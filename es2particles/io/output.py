@@ -557,7 +557,8 @@ def encode_png(pixels, compress_level=1):
 
     header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)  # 8 bits, truecolour, no interlace
     return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
-            + chunk(b"IDAT", deflate(rows.tobytes(), compress_level)) + chunk(b"IEND", b""))
+            + chunk(b"IDAT", deflate(memoryview(rows).cast("B"), compress_level))
+            + chunk(b"IEND", b""))
 
 
 # Below this many bytes one thread deflates faster than several start.

@@ -246,6 +246,8 @@ def _add_scene_commands(commands, argv):
                                    "the mouse move the camera, the sphere, the coefficients")):
         parser = commands.add_parser(command, help=f"{text} (scenes: {names})",
                                      description=f"{text}. Installed scenes: {names}.")
+        if named is not None and command != argv[0]:
+            continue  # argv runs another command: this one is only listed (~1.5 ms a command)
         scenes = parser.add_subparsers(dest="scene", required=True, metavar="SCENE")
         for name, scene in scenes_found.items():
             summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "")

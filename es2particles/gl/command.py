@@ -22,13 +22,14 @@ written is optimised away, and drivers differ there), so a used uniform the driv
 skipped, not an error.
 """
 
+import functools
 import re
 
 from ..errors import ParameterError
 from .bindings import compile_checked, declared_names, strip_comments
 from .context import ProgramValues
 from .device import PRIMITIVES, DrawState
-from .shaders import GENERATED, expand
+from .shaders import GENERATED
 
 FULLSCREEN = "lib/fullscreen.vert"
 
@@ -75,8 +76,7 @@ class DrawCommand:
         fs_prelude = interface.lines if interface is not None else None
         epilogue = interface.epilogue if interface is not None else None
         vs_prelude = vertex_interface.lines if vertex_interface is not None else None
-        sources = (expand(vertex, defines, vs_prelude), expand(fragment, defines, fs_prelude,
-                                                               epilogue))
+        sources = self.ctx.sources(vertex, fragment, defines, vs_prelude, fs_prelude, epilogue)
         self.declared, self.referenced = {}, set()
         for source in sources:
             declared, referenced = _names(source)
@@ -172,6 +172,7 @@ def _checked(compile, source, interface, stage):
     return lambda: compile_checked(compile, source, interface, stage)
 
 
+@functools.lru_cache(maxsize=256)  # commands sharing a program share its sources (Context)
 def _names(source):
     """(uniform name -> type declared anywhere, identifiers the non-generated code uses outside
     declarations). Comments are stripped across lines; several declarations per statement and
@@ -185,4 +186,4 @@ def _names(source):
     for line, (file, _) in zip(code.split("\n"), source.origins):
         if file != GENERATED:
             referenced.update(re.findall(r"[A-Za-z_]\w*", line))
-    return declared, referenced
+    return declared, frozenset(referenced)

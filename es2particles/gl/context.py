@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import CapabilityError, ContextError, ParameterError
-from .shaders import compile_program
+from .shaders import compile_program, expand
 
 # Formats the state may use: name -> moderngl dtype (four components).
 FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
@@ -136,6 +136,12 @@ class FormatFlags(dict):
         return self[fmt] if fmt in TEXTURE_FORMATS else default
 
 
+
+def _program_key(vertex, fragment, defines, vertex_prelude, fragment_prelude, fragment_epilogue):
+    return (str(vertex), str(fragment), tuple(sorted((defines or {}).items())),
+            tuple(vertex_prelude or ()), tuple(fragment_prelude or ()),
+            tuple(fragment_epilogue or ()))
+
 class Context:
     """A headless GL context and the one owner of the GL objects made through it.
 
@@ -152,6 +158,7 @@ class Context:
         Context._current = self  # a new context is current
         self._owned = []
         self._programs = {}
+        self._sources = {}  # the same keys: a program's two expanded sources
         self._caps = None
         self._fullscreen = None
         self._open = True
@@ -227,6 +234,7 @@ class Context:
         while self._owned:
             self.device.release(self._owned.pop())
         self._programs.clear()
+        self._sources.clear()
         self._fullscreen = None
         if self._open:
             self.device.close()
@@ -286,17 +294,29 @@ class Context:
     def buffer(self, data):
         return self.own(self.device.buffer(data))
 
+    def sources(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None,
+                fragment_epilogue=None):
+        """The two :class:`~es2particles.gl.shaders.ExpandedSource` of the program
+        :meth:`program` makes from the same arguments: expanded once per context, as the program
+        is compiled once (draw commands that share a program share them)."""
+        key = _program_key(vertex, fragment, defines, vertex_prelude, fragment_prelude,
+                           fragment_epilogue)
+        if key not in self._sources:
+            self._sources[key] = (expand(vertex, defines, vertex_prelude),
+                                  expand(fragment, defines, fragment_prelude, fragment_epilogue))
+        return self._sources[key]
+
     def program(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None,
                 fragment_epilogue=None):
         """Compiled program for the shader files, defines and generated preludes and epilogue
         (see ``bindings.py``); compiled once, then cached."""
-        key = (str(vertex), str(fragment), tuple(sorted((defines or {}).items())),
-               tuple(vertex_prelude or ()), tuple(fragment_prelude or ()),
-               tuple(fragment_epilogue or ()))
+        key = _program_key(vertex, fragment, defines, vertex_prelude, fragment_prelude,
+                           fragment_epilogue)
         if key not in self._programs:
-            self._programs[key] = self.own(compile_program(self.device, vertex, fragment, defines,
-                                                           vertex_prelude, fragment_prelude,
-                                                           fragment_epilogue))
+            sources = self.sources(vertex, fragment, defines, vertex_prelude, fragment_prelude,
+                                   fragment_epilogue)
+            self._programs[key] = self.own(compile_program(self.device, vertex, fragment,
+                                                           sources=sources))
         return self._programs[key]
 
     def vertex_array(self, program, content, indices=None):

@@ -60,10 +60,15 @@ def find_include(name, near=None):
     if relative.is_absolute() or ".." in relative.parts or not relative.parts:
         raise ShaderError(f"#include {name!r}: includes are relative paths inside the library or "
                           "the including file's folder (no absolute path, no '..')")
-    folders = ([Path(near).resolve().parent] if near is not None else []) + [shader_root()]
+    # ``near`` is a resolved path (find_shader's, or this function's): its folder needs no
+    # resolving again.
+    folders = ([Path(near).parent] if near is not None else []) + [shader_root()]
     for folder in folders:
-        candidate = (folder / relative).resolve()
-        if candidate.is_file() and folder in candidate.parents:
+        candidate = folder / relative
+        if not candidate.is_file():  # one stat; resolving walks every part of the path
+            continue
+        candidate = candidate.resolve()
+        if folder in candidate.parents:
             return candidate
     looked = ", ".join(str(folder / relative) for folder in folders)
     raise ShaderError(f"shader file {name!r} not found (looked at: {looked})")
@@ -110,13 +115,14 @@ def expand(name, defines=None, prelude=None, epilogue=None):
 
 
 def _paste(path, lines, start, out, seen, depth):
+    where = str(path)  # once a file, not once a line
     for number, line in enumerate(lines[start:], start + 1):
         include = _INCLUDE.match(line)
         if include is None:
             if _VERSION.match(line):
                 raise ShaderError(f"{path}:{number}: '#version' may only stand at the top of a "
                                   "shader, not in an included file")
-            out.append((line, (str(path), number)))
+            out.append((line, (where, number)))
             continue
         if depth >= MAX_INCLUDE_DEPTH:
             raise ShaderError(f"{path}:{number}: includes nest deeper than {MAX_INCLUDE_DEPTH}")
@@ -182,16 +188,19 @@ def _source_line(file, line):
 
 
 def compile_program(device, vertex, fragment, defines=None, vertex_prelude=None,
-                    fragment_prelude=None, fragment_epilogue=None):
+                    fragment_prelude=None, fragment_epilogue=None, sources=None):
     """Compile and link a program on ``device`` (see ``device.py``) from library or user shader
-    files, each with its generated prelude (see :func:`expand`).
+    files, each with its generated prelude (see :func:`expand`); ``sources``, where given, are
+    the two :class:`ExpandedSource` of exactly these, expanded already.
 
     Raises :class:`ShaderError` naming the file and line of each driver message.
     """
     from .device import ProgramError
 
-    vs = expand(vertex, defines, vertex_prelude)
-    fs = expand(fragment, defines, fragment_prelude, fragment_epilogue)
+    if sources is None:
+        sources = (expand(vertex, defines, vertex_prelude),
+                   expand(fragment, defines, fragment_prelude, fragment_epilogue))
+    vs, fs = sources
     try:
         return device.program(vs.text, fs.text)
     except ProgramError as error:

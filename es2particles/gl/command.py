@@ -24,6 +24,7 @@ skipped, not an error.
 
 import functools
 import re
+from types import MappingProxyType
 
 from ..errors import ParameterError
 from .bindings import compile_checked, declared_names, strip_comments
@@ -186,4 +187,4 @@ def _names(source):
     for line, (file, _) in zip(code.split("\n"), source.origins):
         if file != GENERATED:
             referenced.update(re.findall(r"[A-Za-z_]\w*", line))
-    return declared, frozenset(referenced)
+    return MappingProxyType(declared), frozenset(referenced)  # cached: read-only

@@ -136,11 +136,11 @@ class FormatFlags(dict):
         return self[fmt] if fmt in TEXTURE_FORMATS else default
 
 
-
 def _program_key(vertex, fragment, defines, vertex_prelude, fragment_prelude, fragment_epilogue):
     return (str(vertex), str(fragment), tuple(sorted((defines or {}).items())),
             tuple(vertex_prelude or ()), tuple(fragment_prelude or ()),
             tuple(fragment_epilogue or ()))
+
 
 class Context:
     """A headless GL context and the one owner of the GL objects made through it.
@@ -316,7 +316,7 @@ class Context:
             sources = self.sources(vertex, fragment, defines, vertex_prelude, fragment_prelude,
                                    fragment_epilogue)
             self._programs[key] = self.own(compile_program(self.device, vertex, fragment,
-                                                           sources=sources))
+                                                           sources))
         return self._programs[key]
 
     def vertex_array(self, program, content, indices=None):

@@ -187,19 +187,14 @@ def _source_line(file, line):
         return ""
 
 
-def compile_program(device, vertex, fragment, defines=None, vertex_prelude=None,
-                    fragment_prelude=None, fragment_epilogue=None, sources=None):
-    """Compile and link a program on ``device`` (see ``device.py``) from library or user shader
-    files, each with its generated prelude (see :func:`expand`); ``sources``, where given, are
-    the two :class:`ExpandedSource` of exactly these, expanded already.
+def compile_program(device, vertex, fragment, sources):
+    """Compile and link a program on ``device`` (see ``device.py``) from ``sources``, the two
+    :class:`ExpandedSource` (see :func:`expand`) of shader files ``vertex`` and ``fragment``.
 
     Raises :class:`ShaderError` naming the file and line of each driver message.
     """
     from .device import ProgramError
 
-    if sources is None:
-        sources = (expand(vertex, defines, vertex_prelude),
-                   expand(fragment, defines, fragment_prelude, fragment_epilogue))
     vs, fs = sources
     try:
         return device.program(vs.text, fs.text)

@@ -7,16 +7,13 @@ import numpy as np
 
 from .motion import rotation
 from .drag import exact_drag
-from .life import hash44
+from .life import step_hash
 
 
 def flight_random(uv, step, state_size):
     """``flight_random``: four numbers in [0, 1) per particle (float32, as the GPU)."""
     texel = np.floor(np.asarray(uv, np.float32) * np.asarray(state_size, np.float32))
-    step = np.float32(step)
-    extra = np.broadcast_to([np.fmod(step, np.float32(4096)),
-                             np.floor(step / np.float32(4096)) + np.float32(53)], texel.shape)
-    return hash44(np.concatenate([texel, extra], axis=-1)).astype(np.float64)
+    return step_hash(texel, step, 53).astype(np.float64)
 
 
 def random_tangent(n, turn):

@@ -36,7 +36,7 @@ vec3 touched;
 // Four more numbers in [0, 1) per particle and step (life_random's are the emission's).
 vec4 flight_random(vec2 uv)
 {
-    return hash44(vec4(floor(uv * u_state_size), mod(u_step, 4096.0), floor(u_step / 4096.0) + 53.0));
+    return step_hash(floor(uv * u_state_size), 53.0);
 }
 
 #include "lib/field3d.glsl"
@@ -144,7 +144,7 @@ void integrate(inout vec3 x, inout vec3 v, vec4 r)
 Particle emit(vec2 uv)
 {
     vec4 r = life_random(uv);
-    vec4 s = hash44(vec4(floor(uv * u_state_size), mod(u_step, 4096.0), floor(u_step / 4096.0) + 71.0));
+    vec4 s = step_hash(floor(uv * u_state_size), 71.0);
     float angle = 6.2831853 * r.x;
     float radius = u_emitter.w * sqrt(r.y);
     Particle p;

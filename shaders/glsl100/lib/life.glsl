@@ -7,6 +7,8 @@
 // its texel and the step number, computed alike in every pass of the scene, so passes that
 // write different quantities agree without extra state. numpy twin: es2particles/life.py.
 #include "lib/hash.glsl"
+// step_hash (the generated interface has it in already)
+#include "lib/state.glsl"
 
 // False for NaN (every comparison with NaN fails) and for +-Inf: non-finite state (only float
 // formats can hold it) is caught by the emitting scenes' steps and the particle re-emitted.

@@ -135,12 +135,16 @@ def _read_function(out, q, c, fmt, texels, salt):
     decoded into the range (with the read's jitter, lib/state.glsl's state_jitter, under
     rounding "jitter"; ``salt`` is :data:`READ_SALTS`' of the reader, None for a quantity
     pinned to its storage, an exact clock, which reads its code), floats as they are."""
+    jitter = []  # the offsets of both parts from one hash
     if fmt == "rgba8":
+        if salt is not None:
+            jitter = [f"    vec4 jitter = state_jitter(uv * u_state_size, {salt:.1f});"]
+
         def decode(t, axes):
             ranges = f"u_{q}_lo.{axes}, u_{q}_span.{axes}"
             if salt is None:
                 return f"state_decode({t}, {ranges})"
-            return f"state_read({t}, {ranges}, state_jitter(uv * u_state_size, {salt:.1f}).{axes})"
+            return f"state_read({t}, {ranges}, jitter.{axes})"
         decoded = [decode(t, axes) for t, axes in zip(texels, ("xy", "zw"))]
         if c <= 2:
             body = decoded[0] + (".x" if c == 1 else "")
@@ -148,7 +152,7 @@ def _read_function(out, q, c, fmt, texels, salt):
             body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
     else:
         body = texels[0] + ("" if c == 4 else "." + "xyzw"[:c])
-    out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", f"    return {body};", "}"]
+    out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", *jitter, f"    return {body};", "}"]
 
 
 def _attribute_reader(out, quantity, fmt):

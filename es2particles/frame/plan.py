@@ -419,12 +419,16 @@ class PlanBuilder:
     def stage(self, stage):
         """Add ``stage``, with what the state's rounding asks of it, whoever declared it
         (lib/state.glsl): STATE_DITHER for a pass, which writes state, under rounding "dither";
-        STATE_JITTER and the step for a stage that reads packed state under "jitter"."""
+        STATE_JITTER and the step for a stage that reads packed state under "jitter", and to one
+        that reads it through read-back attributes, each particle's texel (the jitter's hash
+        input, which its reads otherwise do without)."""
         if self.rounding == "dither" and stage.step:
             stage = replace(stage, defines={"STATE_DITHER": None, **stage.defines})
         if self.jittered_reads and _reads_state(stage):
             stage = replace(stage, defines={**stage.defines, "STATE_JITTER": None},
                             frame_uniforms={**stage.frame_uniforms, "u_step": ("step",)})
+            if stage.attributes and stage.vertices is None:
+                stage = replace(stage, vertices=self.particle_texels())
         if any(s.name == stage.name for s in self.stages):
             raise GraphError(f"two stages of the frame are named {stage.name!r}")
         for sampler, ref in stage.inputs.items():

@@ -157,8 +157,9 @@ def _read_function(out, q, c, fmt, texels, salt):
 
 def _attribute_reader(out, quantity, fmt):
     """``read_q(uv)`` from attributes: the quantity's texels, read back into a vertex buffer in
-    the draw's order (the texel ``uv`` is not needed), decoded as a texture fetch decodes them:
-    RGBA8 bytes normalised to c / 255 as a sampler gives them, floats as they are."""
+    the draw's order (the texel ``uv`` is needed only by a jittered read's hash: the plan gives
+    such a stage the particles' texels), decoded as a texture fetch decodes them: RGBA8 bytes
+    normalised to c / 255 as a sampler gives them, floats as they are."""
     q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
     names = [f"a_{q}" if part == 0 else f"a_{q}_{part}" for part in range(quantity.parts(fmt))]

@@ -142,7 +142,7 @@ class Density(Rendering):
             {"AGE_FADE": None} if "life" in quantities else {}, vertex_interface=interface,
             inputs=b.state_inputs(interface), attributes=b.state_attributes(interface),
             target=Ref("density"),
-            vertices=b.particle_texels() if fetch or b.jittered_reads else None,
+            vertices=b.particle_texels() if fetch else None,
             primitive="points", count=layout.count,
             state=DrawState(blend="add", point_size=True),
             uniforms={**own, "u_colour": (intensity * scale,) * 4},

@@ -58,30 +58,14 @@ def stages(p, *kinds, camera=None):
     return lambda: [p.executor.run(s, p.executor.frame(camera)) for s in chosen]
 
 
-def collision_steady(pipeline, rng):
-    """Every particle alive, spread over the scene with emission-like speeds and ages: the steady
-    fountain's cost without the minutes of warm-up it takes at 2^22 on a CPU rasteriser."""
-    sim, scene = pipeline.sim, pipeline.scene
-    n = sim.count
-    x = rng.uniform(-0.95, 0.95, (3 * n, 2))
-    x = x[scene.field.exact_distance(x) > 0.01][:n]
-    while len(x) < n:
-        x = np.concatenate([x, x[: n - len(x)]])
-    angle = rng.uniform(0, 2 * np.pi, n)
-    speed = rng.uniform(0.5, 3.0, n)
-    life = rng.uniform(*scene.params.lifetime, n)
-    sim.upload("position", x)
-    sim.upload("velocity", np.stack([np.cos(angle), np.sin(angle)], 1) * speed[:, None])
-    sim.upload("life", np.stack([rng.uniform(0, 1, n) * life, life], 1))
-
-
 def ours(ctx, scene_name, count, repeats):
     scene = DeJong() if scene_name == "dejong" else Collision(shape="circle+box+capsule")
     with Pipeline(ctx, scene, count, SIZE, bloom=Bloom()) as p:
         if scene_name == "dejong":
             p.step(20)
-        else:
-            collision_steady(p, np.random.default_rng(0))
+        else:  # one draw of 3N candidates, as before growth.py drew them in chunks
+            from growth import collision_steady
+            collision_steady(p, np.random.default_rng(0), chunk=3 * count)
         finish = ctx.finish
         rows = {"step": timed(lambda: p.step(1), repeats, finish),
                 "render": timed(stages(p, "points"), repeats, finish)}

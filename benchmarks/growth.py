@@ -27,7 +27,7 @@ size; predicted as the last size's time, grown as from the size before it), and 
 says which sizes were left out and why.
 
 The particles are in their steady state when timed: the attractors run their 20 warm-up
-steps; the 2D collision is seeded as ``bench.collision_steady`` does (every particle alive,
+steps; the 2D collision is seeded by ``collision_steady`` (every particle alive,
 spread over the scene; its candidates drawn 2^20 at a time, where bench's one draw peaks at
 5.3 GiB at 2^24); an emitter scene (fountain, collision3d, confetti, smoke) runs its own
 warm-up (one longest lifetime) once at 2^16 particles, and every count takes that state's
@@ -151,10 +151,10 @@ def stage_groups(plan):
 
 
 def collision_steady(p, rng, chunk=2 ** 20):
-    """bench.collision_steady's state (every particle alive, spread over the scene outside its
-    shapes, with emission-like speeds and ages), its candidate positions drawn and tested
-    ``chunk`` at a time: bench's one draw of 3N candidates and their distances peaks at 5.3 GiB
-    of host memory at 2^24 particles."""
+    """Every particle alive, spread over the scene outside its shapes, with emission-like speeds
+    and ages: the steady fountain's cost without the minutes of warm-up it takes at 2^22 on a
+    CPU rasteriser. Candidate positions are drawn and tested ``chunk`` at a time (bench.py
+    draws 3N at once; at 2^24 particles that peaks at 5.3 GiB of host memory)."""
     sim, scene = p.sim, p.scene
     n = sim.count
     kept, have = [], 0
@@ -181,7 +181,7 @@ class Steady:
     def how(self):
         if not self.emitter:
             return ("its 20 warm-up steps" if self.name != "collision"
-                    else "seeded as bench.collision_steady (every particle alive), its "
+                    else "seeded by collision_steady (every particle alive), its "
                     "candidates drawn 2^20 at a time")
         return (f"its warm-up ({self.steps} steps) at 2^16, whose texels every count repeats "
                 "or cuts")

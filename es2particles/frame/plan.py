@@ -38,6 +38,12 @@ from .state import Layout
 
 # --- the plan's parts ---------------------------------------------------------------------------
 
+def _made(value):
+    """``value``, or what it makes where it is a function (data made when its buffer or texture
+    is, after the run's memory is checked)."""
+    return value() if callable(value) else value
+
+
 @dataclass(frozen=True)
 class Ref:
     """Where a sampler's texture comes from, or where a stage draws: part ``part`` of resource
@@ -76,7 +82,7 @@ class Resource:
 
     def contents(self):
         """The first contents: ``data``, or what its function makes."""
-        return self.data() if callable(self.data) else self.data
+        return _made(self.data)
 
     @property
     def nbytes(self):
@@ -126,13 +132,17 @@ class Vertices:
         """The vertex data as an (n, k) float32 array."""
         if self.source == "texels":
             return Layout(self.count, self.width, self.height).texel_uv()
-        data = self.data() if callable(self.data) else self.data
-        return np.ascontiguousarray(data, dtype=np.float32)
+        return np.ascontiguousarray(_made(self.data), dtype=np.float32)
 
     def index_array(self):
         """The indices as a uint32 array, or None."""
-        indices = self.indices() if callable(self.indices) else self.indices
-        return None if indices is None else np.ascontiguousarray(indices, np.uint32)
+        if self.indices is None:
+            return None
+        indices = np.ascontiguousarray(_made(self.indices), np.uint32)
+        if len(indices) != self.indices_size:  # the memory estimate counted indices_size
+            raise GraphError(f"vertex data {self.name!r}: its index function made "
+                             f"{len(indices)} indices, not the {self.indices_size} declared")
+        return indices
 
     @property
     def indexed(self):

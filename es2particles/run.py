@@ -203,13 +203,13 @@ def _number(data, key, where):
 def read_toml(path, option, what="TOML"):
     """The tables of the TOML file at ``path`` given as ``option``: where it is not a file, or
     not ``what``, one line naming both."""
-    from pathlib import Path
+    from .io.images import open_input
 
-    path = Path(path)
-    if not path.is_file():
-        raise ParameterError(f"{option} {str(path)!r}: no such file")
+    named = f"{option} {str(path)!r}"
+    with open_input(path, option, named) as handle:  # a folder, FIFO or device: said as such
+        data = handle.read()
     try:
-        return _toml_loads(path.read_text(encoding="utf-8"))
+        return _toml_loads(data.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as error:  # TOMLDecodeError is a ValueError
         raise ParameterError(f"{option} {str(path)!r} is not {what}: {error}") from None
 

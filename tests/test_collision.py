@@ -516,8 +516,12 @@ def test_bad_scene_input_is_a_clear_error(tmp_path):
         Collision(shape=str(solid))
     broken = tmp_path / "broken.png"
     broken.write_bytes(b"not a png")
-    with pytest.raises(ParameterError, match="cannot be read as an image"):
+    with pytest.raises(ParameterError, match="is not a PNG image"):
         Collision(shape=str(broken))
+    truncated = tmp_path / "truncated.png"
+    truncated.write_bytes(blank.read_bytes()[:40])
+    with pytest.raises(ParameterError, match="cannot be read as a PNG image"):
+        Collision(shape=str(truncated))
     with pytest.raises(ParameterError, match="does not exist"):
         Collision(shape=str(tmp_path / "missing.png"))
     with pytest.raises(ParameterError, match="outside the scene rectangle"):

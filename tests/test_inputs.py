@@ -323,3 +323,57 @@ def test_a_cost_at_the_defaults_or_slightly_above_is_not_said(tmp_path, capsys, 
     monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
     main(["run", "collision3d", "--field-resolution", "96", "--out", str(tmp_path / "x.png")])
     assert "warning" not in capsys.readouterr().err
+
+
+def not_png_files(folder):
+    """Files of other formats, each named ``.png``: what Pillow would open if asked. The EPS's
+    PostScript writes a file if anything runs it (Ghostscript, which Pillow calls for EPS)."""
+    from PIL import Image
+
+    made = {}
+    marker = folder / "ghostscript-ran"
+    made["PostScript"] = (b"%!PS-Adobe-3.0 EPSF-3.0\n%%BoundingBox: 0 0 8 8\n"
+                          + f"({marker}) (w) file closefile showpage\n".encode())
+    tile = Image.new("RGB", (8, 8), (200, 40, 40))
+    for kind, fmt in [("a PDF", "PDF"), ("a TIFF", "TIFF"), ("a Windows icon", "ICO"),
+                      ("a JPEG", "JPEG"), ("a GIF", "GIF"), ("a BMP", "BMP")]:
+        path = folder / f"{fmt}.tmp"
+        tile.save(path, format=fmt)
+        made[kind] = path.read_bytes()
+    # Pillow reads PSD but cannot write it: the 26-byte header and empty sections of an 8x8 RGB.
+    made["a Photoshop PSD"] = (b"8BPS" + (1).to_bytes(2, "big") + bytes(6) + (3).to_bytes(2, "big")
+                               + (8).to_bytes(4, "big") * 2 + (8).to_bytes(2, "big")
+                               + (3).to_bytes(2, "big") + bytes(12) + bytes(2) + bytes(192))
+    return made, marker
+
+
+@pytest.mark.parametrize("option, scene", [("--gradient", "dejong"), ("--shape", "collision"),
+                                           ("--sprite", "fountain")])
+def test_an_image_that_is_no_png_is_refused_unopened_whatever_its_name(tmp_path, capsys,
+                                                                       monkeypatch, option, scene):
+    """Issue 44, item 1: an EPS named x.png went to Ghostscript and its PostScript ran. Only a
+    PNG's signature is opened; every other format is refused in one line saying what it is,
+    before any decoder or program sees it (no GL context: the refusal comes before one)."""
+    import subprocess
+
+    from PIL import Image
+
+    def no_programs(*args, **kwargs):
+        raise AssertionError(f"a program was started to read an image: {args}")
+
+    for name in ("Popen", "run", "call", "check_call", "check_output"):
+        monkeypatch.setattr(subprocess, name, no_programs)
+    opened = []
+    monkeypatch.setattr(Image, "open", lambda *a, **k: opened.append(a) or 1 / 0)
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    made, marker = not_png_files(tmp_path)
+    out = tmp_path / "out.png"
+    for kind, data in made.items():
+        image = tmp_path / "image.png"
+        image.write_bytes(data)
+        assert main(["run", scene, *SMALL, option, str(image), "--out", str(out)]) == 2, kind
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "Traceback" not in err, err
+        assert f"{str(image)!r} is not a PNG image: it is {kind}" in err, (kind, err)
+        assert option in err, err
+    assert opened == [] and not marker.exists() and not out.exists()

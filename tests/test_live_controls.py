@@ -144,7 +144,7 @@ def test_a_bad_bindings_file_is_one_line_naming_it(tmp_path, capsys, content, me
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["view", "smoke", "--keys", "missing.toml"], "--keys 'missing.toml': no such file"),
+    (["view", "smoke", "--keys", "missing.toml"], "--keys 'missing.toml' does not exist"),
     (["view", "dejong", "--exit-after", "0"], "--exit-after must be in [1, 1000000000]"),
     (["view", "dejong", "--screenshot", "shot.jpg"], "--screenshot must end in .png"),
     (["view", "smoke", "--opacity", "2"], "--opacity must be in [0, 1]"),

@@ -125,7 +125,7 @@ def test_a_missing_mesh_extra_still_says_how_to_install_it(tmp_path, capsys, mon
 
 @pytest.mark.parametrize("scene, name, label", [("collision3d", "shape.obj", "mesh file {}"),
                                                 ("collision3d", "shape.stl", "mesh file {}"),
-                                                ("collision", "mask.png", "shape mask: {}")])
+                                                ("collision", "mask.png", "--shape (a mask): {}")])
 def test_a_folder_is_named_as_a_folder(tmp_path, capsys, monkeypatch, scene, name, label):
     """It said "does not exist"."""
     folder = tmp_path / name
@@ -136,7 +136,7 @@ def test_a_folder_is_named_as_a_folder(tmp_path, capsys, monkeypatch, scene, nam
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 @pytest.mark.parametrize("scene, name, label", [("collision3d", "shape.stl", "mesh file {}"),
-                                                ("collision", "mask.png", "shape mask: {}")])
+                                                ("collision", "mask.png", "--shape (a mask): {}")])
 def test_a_fifo_is_refused_not_opened(tmp_path, scene, name, label):
     """A FIFO opened for reading waits for a writer forever: in a process of its own, with a
     time limit, so that a regression fails instead of hanging the tests."""
@@ -282,3 +282,33 @@ def test_a_good_mesh_still_runs(tmp_path, capsys):
     assert main(["run", "collision3d", "--shape", str(path), "--out", str(out), *SMALL,
                  "--steps", "2"]) == 0, capsys.readouterr().err
     assert out.stat().st_size > 0
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_files_a_mesh_names_are_never_opened(tmp_path):
+    """Issue 44, item 2: an OBJ whose mtllib named a FIFO blocked forever in open(). The mesh is
+    read from its own bytes with no resolver: an mtllib naming a FIFO, a device or a file
+    outside the mesh's folder is not opened, and the geometry loads (in a process of its own,
+    with a time limit, so that a regression fails instead of hanging the tests)."""
+    pytest.importorskip("trimesh")
+    fifo = tmp_path / "materials.mtl"
+    os.mkfifo(fifo)
+    mesh = tmp_path / "tetrahedron.obj"
+    for named in (fifo, "/dev/zero", "../../../../etc/passwd"):
+        mesh.write_text(f"mtllib {named}\nusemtl stone\n"
+                        + obj_text(TETRAHEDRON, TETRAHEDRON_FACES))
+        code = ("from es2particles.fields.field3d import load_mesh; "
+                f"print(len(load_mesh({str(mesh)!r}).faces))")
+        done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                              timeout=60)
+        assert done.returncode == 0 and done.stdout.strip() == "4", (named, done.stderr)
+
+
+@pytest.mark.parametrize("name", ["shape.gltf", "shape.glb", "shape.off", "shape.dae"])
+def test_mesh_formats_not_documented_are_not_opened(tmp_path, capsys, monkeypatch, name):
+    """Only OBJ, STL and PLY are read (a glTF names buffer files of its own): the others are
+    refused in one line, whatever they hold."""
+    path = tmp_path / name
+    path.write_text('{"asset": {"version": "2.0"}, "buffers": [{"uri": "/dev/zero"}]}')
+    err = refused(tmp_path, capsys, monkeypatch, "collision3d", path)
+    assert "(.obj .stl .ply)" in err, err

@@ -433,7 +433,7 @@ def animation(client, run, out, worker_timeout=WORKER_TIMEOUT):
         print(f"es2particles: assembling {frames} frames into {out}", file=sys.stderr)
     with AnimationWriter(out, run.fps) as writer:
         for frame in range(frames):
-            with Image.open(path[frame]) as image:
+            with Image.open(path[frame], formats=["PNG"]) as image:  # our frames: PNG only
                 writer.add(np.asarray(image.convert("RGB")))
         writer.close()
     shutil.rmtree(folder)

@@ -128,7 +128,7 @@ def load_mask(path, resolution):
 
     from ..io.images import read_image
 
-    image = read_image(path, "mask", mode=None)
+    image = read_image(path, "--shape (a mask)", mode=None)
     if "A" in image.getbands():
         pixels = np.asarray(image.getchannel("A"), dtype=np.float64) / 255 >= 0.5
     else:
@@ -313,7 +313,7 @@ def parse_shape(spec, rect):
     if spec.lower().endswith(".png"):
         from ..io.images import check_input
 
-        check_input(spec, "shape mask")  # a folder or a FIFO named here is not opened
+        check_input(spec, "--shape (a mask)")  # a folder or a FIFO named here is not opened
         return [], spec
     shapes = []
     for name in spec.split("+"):

@@ -30,6 +30,7 @@ mesh file is checked before it is used (:func:`load_mesh`), and the voxelising's
 are estimated from its triangles before it starts (:func:`check_voxelising`).
 """
 
+import io
 import re
 from dataclasses import dataclass
 from functools import cached_property
@@ -229,10 +230,14 @@ class TriangleMesh:
 # Coordinates a mesh file may hold: trimesh merges vertices on a grid of tol.merge = 1e-8 held in
 # int64, which overflows beyond 2^63 * 1e-8 = 9.2e10 (numpy's 'invalid value encountered in cast').
 MAX_COORDINATE = 1e10
+# The mesh formats read, by extension, each parsed as that format alone. Formats that name other
+# files (glTF's buffers, an OBJ's mtllib, a PLY's texture) are not followed: only the geometry
+# is used, and a named file could be a FIFO (a hang) or lie outside the mesh's folder.
+MESH_TYPES = {".obj": "obj", ".stl": "stl", ".ply": "ply"}
 
 
 def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
-    """A mesh file (OBJ, STL, PLY, ...) scaled so that its longest side is ``size`` and moved so
+    """A mesh file (OBJ, STL or PLY, by its extension) scaled so that its longest side is ``size`` and moved so
     that its bounding box's centre is ``centre``.
 
     The file is checked before it is used, each fault one :class:`ParameterError` naming it: a
@@ -246,14 +251,16 @@ def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
     except ImportError:
         raise ParameterError("mesh shapes need trimesh and scipy: pip install "
                              "'es2particles[mesh]'") from None
-    from ..io.images import file_fault
+    from ..io.images import open_input
 
     check_range("mesh size", size, 1e-3, 1e3)
     named = f"mesh file {str(path)!r}"
-    fault = file_fault(path)
-    if fault:
-        raise ParameterError(f"{named} {fault}")
-    scene = _read_mesh_scene(Path(path), named)
+    kind = MESH_TYPES.get(Path(path).suffix.lower())
+    if kind is None:
+        raise ParameterError(f"{named}: mesh files are read as OBJ, STL or PLY, by their "
+                             "extension (.obj .stl .ply)")
+    with open_input(path, "--shape", named) as handle:
+        scene = _read_mesh_scene(handle, kind, Path(path), named)
     parts = [g for g in scene.geometry.values() if isinstance(g, trimesh.Trimesh)]
     for part in scene.geometry.values():
         _check_raw_mesh(part, named)
@@ -284,13 +291,17 @@ def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
     return TriangleMesh(v, faces, str(path), bool(mesh.is_watertight))
 
 
-def _read_mesh_scene(file, named):
-    """The file through trimesh, unprocessed (each part's vertices and faces as the file has
-    them), or one line saying why it is not a mesh."""
+def _read_mesh_scene(handle, kind, file, named):
+    """The open file ``handle`` read by trimesh as ``kind``, unprocessed (each part's vertices
+    and faces as the file has them), or one line saying why it is not a mesh. It is given the
+    open file and no resolver, so nothing the file names (an OBJ's mtllib, a PLY's texture) is
+    opened."""
     import trimesh
 
+    stream = io.BytesIO(handle.read())
+    stream.name = file.name  # trimesh names the part after it (an open fd's name is a number)
     try:
-        return trimesh.load_scene(file, process=False)
+        return trimesh.load_scene(stream, file_type=kind, process=False, skip_materials=True)
     except ImportError as error:  # a reader's optional module, wanted for this file's content
         if error.name == "charset_normalizer":  # wanted only to guess a text's encoding
             kind = "neither a binary STL nor UTF-8 text" if file.suffix.lower() == ".stl" \
@@ -411,13 +422,13 @@ def parse_shapes(spec, mesh_centre=(0.0, 1.0, 0.0), mesh_size=2.0):
                 shapes.append(Torus(tuple(values[:3]), values[3], values[4]))
             else:
                 shapes.append(Sphere(tuple(values[:3]), values[3]))
-        elif Path(part).suffix.lower() in (".obj", ".stl", ".ply", ".off", ".glb", ".gltf"):
+        elif Path(part).suffix.lower() in MESH_TYPES:
             shapes.append(load_mesh(part, mesh_centre, mesh_size))
         else:
             raise ParameterError(
                 "shape must be sphere:CX,CY,CZ,R, box:CX,CY,CZ,HX,HY,HZ, "
                 "capsule:AX,AY,AZ,BX,BY,BZ,R, torus:CX,CY,CZ,MAJOR,MINOR or a mesh file "
-                f"(.obj .stl .ply .off .glb .gltf), joined by '+'; got {part!r}")
+                f"(.obj .stl .ply), joined by '+'; got {part!r}")
     return shapes
 
 

@@ -146,7 +146,7 @@ def decompress(compressed):
         source, out = Path(folder) / "in.astc", Path(folder) / "out.png"
         source.write_bytes(header + c.data)
         _run("-dl", source, out)
-        with Image.open(out) as decoded:
+        with Image.open(out, formats=["PNG"]) as decoded:
             return np.asarray(decoded.convert("RGBA")).copy()
 
 

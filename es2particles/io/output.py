@@ -317,8 +317,9 @@ class AnimationWriter:
             else:
                 # Opening a PNG reads its header only: the pixels are read one frame at a time
                 # as the encoder takes them (a list: pillow's APNG writer takes no generator).
+                # Only PNG is opened: these are our own frames, and nothing else is decoded.
                 frames = sorted(self.folder.glob("*.png"))
-                first, rest = Image.open(frames[0]), [Image.open(f) for f in frames[1:]]
+                first, *rest = (Image.open(f, formats=["PNG"]) for f in frames)
                 options = {"save_all": True, "append_images": rest,
                            "duration": int(round(1000 / self.fps)), "loop": 0}
                 if self.format == "WEBP":

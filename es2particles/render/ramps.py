@@ -31,7 +31,7 @@ def load_ramp(spec):
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
         from ..io.images import read_image
 
-        row = np.asarray(read_image(spec, "gradient", "RGB"))[0].astype(np.float64)
+        row = np.asarray(read_image(spec, "--gradient", "RGB"))[0].astype(np.float64)
         if len(row) < 2:
             raise ParameterError(f"gradient image {spec!r} must be at least 2 pixels wide")
         return _interpolate(row)

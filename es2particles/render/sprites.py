@@ -107,8 +107,20 @@ def load_sprite(spec):
         return SPRITES[spec]()
     from ..io.images import read_image
 
-    return np.asarray(read_image(spec, f"--sprite (one of {sorted(SPRITES)} or an image)"),
-                      dtype=np.uint8)
+    return np.asarray(read_image(spec, sprite_option()), dtype=np.uint8)
+
+
+def sprite_option():
+    """How a refusal of ``--sprite`` names it."""
+    return f"--sprite (one of {sorted(SPRITES)} or a PNG path)"
+
+
+def check_sprite(spec):
+    """Refuse a ``--sprite`` that is neither a texture's name nor a PNG file, before any work."""
+    if spec not in SPRITES:
+        from ..io.images import check_png
+
+        check_png(spec, sprite_option())
 
 
 def sprite_image(spec):

@@ -23,7 +23,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..render.camera import Camera, orbit
-from ..render.sprites import SCENE_DEPTHS, SIZE_LAWS, UPSAMPLES, Sprites
+from ..render.sprites import SCENE_DEPTHS, SIZE_LAWS, UPSAMPLES, Sprites, check_sprite
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Scene
 
@@ -93,6 +93,7 @@ class EmitterParams(Params):
                                "xz distance to the target, as a fraction of the first camera's)")
 
     def check(self):
+        check_sprite(self.sprite)
         lo, hi = self.lifetime
         longest = longest_life(self.dt)
         if not (self.dt <= lo <= hi <= longest):

@@ -8,7 +8,9 @@
 #                        reference compiler, Arm's ASTC encoder, Chromium, and an X screen
 #                        (Xvfb, xdotool, Mesa's GLX) for the live window
 #
-# Packages already installed are left alone; apt-get runs through sudo unless run as root.
+# Packages already installed are left alone and recommended ones are not installed (the few a
+# test needs are named: the X screen's fonts, a font for Chromium); apt-get runs through sudo
+# unless run as root.
 # Elsewhere than Debian or Ubuntu it says which packages it would have installed, and goes on.
 set -eu
 cd "$(dirname "$0")"
@@ -16,7 +18,8 @@ cd "$(dirname "$0")"
 packages="python3-venv python3-pip libegl1 libgl1-mesa-dri libegl-mesa0"
 extra=""
 if [ "${1:-}" = "test" ]; then
-  packages="$packages glslang-tools astcenc chromium xvfb xdotool libglx-mesa0"
+  packages="$packages glslang-tools astcenc chromium fonts-liberation xvfb xfonts-base xauth"
+  packages="$packages xdotool libglx-mesa0"
   extra="[test]"
 fi
 
@@ -32,7 +35,10 @@ if [ -n "$missing" ]; then
     [ "$(id -u)" -eq 0 ] || sudo="sudo"
     echo "setup.sh: installing$missing"
     $sudo apt-get update -qq
-    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq $missing
+    # Only the packages named and what they depend on: no recommends (Chromium's recommends alone
+    # were ~130 packages, among them a systemd upgrade), and no upgrade of anything installed.
+    DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends \
+      --no-upgrade $missing
   else
     echo "setup.sh: no apt-get here; install the equivalents of:$missing" >&2
   fi

@@ -68,8 +68,9 @@ WEBPAGE = Path(__file__).resolve().parent / "webpage"
 class _Start:
     """What ``Scene.initialise`` sets, recorded as texels (the simulation's calls, no GL)."""
 
-    def __init__(self, quantities, layout):
+    def __init__(self, quantities, layout, plan=None):
         self.quantities, self.layout, self.texels = quantities, layout, {}
+        self.plan = plan
 
     @property
     def count(self):
@@ -81,15 +82,23 @@ class _Start:
                                  f"(has: {', '.join(self.quantities)})")
         return self.quantities[name]
 
+    def _layout(self, q):
+        return self.layout if self.plan is None else self.plan.layout_of(q)
+
     def fill_uniform(self, name, lo, hi, rng):
         from ..frame.simulation import fill_box
 
         q = self._quantity(name)
         lo, span = fill_box(name, lo, hi, q.components)
-        self.texels[name] = fill_texels(q, self.layout, lo, span, rng, "rgba8")
+        self.texels[name] = fill_texels(q, self._layout(q), lo, span, rng, "rgba8")
 
     def upload(self, name, values):
-        self.texels[name] = encode_values(self._quantity(name), self.layout, values, "rgba8")
+        q = self._quantity(name)
+        layout = self._layout(q)
+        if q.domain is not None and np.ndim(values) >= 2 and \
+                np.shape(values)[:2] == q.domain.shape[::-1]:
+            values = np.reshape(values, (layout.count, -1))  # (H, W, c), as Simulation takes
+        self.texels[name] = encode_values(q, layout, values, "rgba8")
 
 
 def _flat(value):
@@ -158,9 +167,10 @@ def page_plan(scene, settings=None, **given):
     programs = _Programs()
 
     start = _Start({n: r.quantity for n, r in plan.resources.items() if r.kind == "state"},
-                   layout)
+                   layout, plan)
     scene.initialise(start, SeededRandom(plan.settings["seed"]))
-    resources = {name: _resource(r, layout, start) for name, r in plan.resources.items()}
+    resources = {name: _resource(r, plan.layout_of(r.quantity) if r.kind == "state" else layout,
+                                 start) for name, r in plan.resources.items()}
     _fallbacks(plan, resources)
     camera = plan.camera(0, 1) if plan.camera is not None else None
     stages = []
@@ -178,7 +188,8 @@ def page_plan(scene, settings=None, **given):
                  "frame_uniforms": {k: [spec[0], *map(_json_number, spec[1:])]
                                     for k, spec in stage.frame_uniforms.items()},
                  "repeat": [{k: _flat(v) for k, v in r.items()} for r in stage.repeat],
-                 "per_frame": stage.per_frame}
+                 "per_frame": stage.per_frame, "swap": stage.swap,
+                 "loop": list(stage.loop) if stage.loop else None}
         # The numbers of the camera the page starts with, as EGL computes them, so the first
         # frames are the EGL run's (the page's own float64 arithmetic may round a last bit the
         # other way); a page whose camera was moved computes its own.

@@ -65,6 +65,7 @@ class Executor:
             raise
         self._swapped = [name for name in self.resources if name not in self.external
                          and plan.resources[name].swap == "step"]
+        self._rounds = step_rounds(plan.step_stages)
 
     # -- making -----------------------------------------------------------------------------------
 
@@ -72,7 +73,8 @@ class Executor:
         if r.kind == "state":
             if r.quantity.storage:
                 self.ctx.require_format(r.quantity.storage)
-            return StateBuffer(self.group, r.quantity, self.plan.layout, r.format, r.buffers)
+            return StateBuffer(self.group, r.quantity, self.plan.layout_of(r.quantity), r.format,
+                               r.buffers)
         if r.kind == "image":
             if not isinstance(r.data, np.ndarray):  # ASTC blocks
                 return self.group.compressed_texture(r.data)
@@ -227,8 +229,12 @@ class Executor:
         """Run every simulation stage once, then make this step's values the front ones."""
         self._use()
         frame = Frame(step=self.steps_done)
-        for stage in self.plan.step_stages:
-            self.run(stage, frame)
+        for stages, count in self._rounds:
+            for _ in range(count):
+                for stage in stages:
+                    self.run(stage, frame)
+                    if stage.swap:
+                        self.resources[stage.target.resource].swap()
         for name in self._swapped:
             self.resources[name].swap()
         self.steps_done += 1
@@ -277,6 +283,18 @@ class Executor:
 
     def __exit__(self, *exc):
         self.release()
+
+
+def step_rounds(stages):
+    """The step's stages as (stages, count) rounds: a run of consecutive stages of one loop
+    (:attr:`~es2particles.frame.plan.Stage.loop`) repeated its count, each other stage once."""
+    rounds = []
+    for stage in stages:
+        if stage.loop is not None and rounds and rounds[-1][0][-1].loop == stage.loop:
+            rounds[-1][0].append(stage)
+        else:
+            rounds.append(([stage], stage.loop[1] if stage.loop else 1))
+    return rounds
 
 
 def _raw(array):

@@ -11,15 +11,28 @@ Reads are explicit about time, because the same name means two values during a s
 - ``reads``: last step's value (the front texture). Creates no ordering between passes.
 - ``reads_new``: this step's value, written earlier in the same step; the writer is ordered first.
   A cycle of ``reads_new`` is an error: no order could satisfy it.
+
+A quantity may be written by several passes in one step (advect, add forces, project), or by a
+pass repeated k times (:meth:`PassGraph.repeat`: a Jacobi solve). Such a quantity is *versioned*
+(Filament's FrameGraph: each write makes a new version): its writers run in their declared order,
+each write goes to the back of its pair and the pair swaps at once, so a ``reads_new`` sees the
+latest version written before the reader (in declaration order), and ``reads`` (last step's) is
+allowed only before its first writer. A read of a version not yet written is an error naming the
+pass and the quantity; ``plan`` shows each pass's versions.
+
+Quantities live on the particles or on a :class:`~es2particles.frame.state.Grid` of their own size
+(:meth:`PassGraph.grid`); a pass runs over the domain of the quantity it writes.
 """
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Mapping, Tuple
 
 import numpy as np
 
-from ..errors import GraphError, ParameterError
-from .state import Quantity
+from ..errors import GraphError, ParameterError, check_range
+from contextlib import contextmanager
+
+from .state import Grid, Quantity
 
 @dataclass(frozen=True)
 class Pass:
@@ -54,6 +67,7 @@ class Pass:
     textures: Tuple[str, ...] = ()
     uniforms: Mapping = field(default_factory=dict)
     defines: Mapping = field(default_factory=dict)
+    repeat: str = None  # the PassGraph.repeat group it belongs to
 
     def stage(self, part=0):
         """How errors and plans name draw ``part`` of this pass."""
@@ -69,9 +83,15 @@ class Pass:
         if both:
             raise GraphError(f"pass {self.name!r} reads {sorted(both)} both as last step's and this "
                              "step's value; a sampler name u_<quantity> can hold only one")
-        if self.writes in self.reads_new:
-            raise GraphError(f"pass {self.name!r} cannot read this step's value of "
-                             f"{self.writes!r}, which it writes itself")
+
+
+@dataclass(frozen=True)
+class Repeat:
+    """A group of passes run ``count`` times in a row inside each step (a Jacobi solve)."""
+
+    name: str
+    count: int
+    passes: tuple = ()
 
 
 @dataclass
@@ -86,6 +106,30 @@ class Plan:
     left_out_quantities: list
     textures: dict = field(default_factory=dict)  # scene textures sampled: name -> array
     left_out_textures: list = field(default_factory=list)
+    versioned: tuple = ()  # quantities written more than once a step (swapped after each write)
+    repeats: dict = field(default_factory=dict)  # name -> Repeat, of the planned passes
+    grids: dict = field(default_factory=dict)  # name -> Grid, of the planned quantities
+
+    def domain_of(self, quantity):
+        """The Grid ``quantity`` lives on, or None for the particles."""
+        return self.quantities[quantity].domain
+
+    def versions(self):
+        """pass name -> ({quantity: (first, last) version read}, (first, last) version written
+        or None), for the plan's words: a versioned quantity's writes are numbered in run order
+        (version 0 is last step's); a pass in a repeat spans the versions of its iterations."""
+        seen, out = {q: 0 for q in self.versioned}, {}
+        for p in self.passes:
+            count = self.repeats[p.repeat].count if p.repeat else 1
+            reads = {q: (0, 0) for q in p.reads if q in seen}  # last step's: version 0
+            reads.update({q: (seen[q], seen[q] + count - 1) if q == p.writes
+                          else (seen[q], seen[q]) for q in p.reads_new if q in seen})
+            written = None
+            if p.writes in seen:
+                written = (seen[p.writes] + 1, seen[p.writes] + count)
+                seen[p.writes] += count
+            out[p.name] = (reads, written)
+        return out
 
     @property
     def texture_count(self):
@@ -109,19 +153,46 @@ class Plan:
         from ..gl.context import bytes_per_texel
 
         texel_count = layout.width * layout.height if layout is not None else None
-        lines = [f"outputs: {', '.join(self.outputs)}", "passes, in order:"]
+        lines = [f"outputs: {', '.join(self.outputs)}"]
+        for grid in self.grids.values():
+            (x0, y0), (x1, y1) = grid.box
+            lines.append(f"grid {grid.name}: {grid.shape[0]}x{grid.shape[1]} cells over "
+                         f"({x0:g}, {y0:g})-({x1:g}, {y1:g}), one texel a cell")
+        lines.append("passes, in order:")
+        versions = self.versions()
+
+        def version(span):
+            first, last = span
+            return f"v{first}" if first == last else f"v{first}..v{last}"
+
+        open_repeat = None
         for i, (p, part, parts) in enumerate(self.draws(fmt), 1):
-            reads = [f"{q} (last step)" for q in p.reads] + [f"{q} (this step)" for q in p.reads_new]
+            if p.repeat != open_repeat and p.repeat is not None:
+                r = self.repeats[p.repeat]
+                lines.append(f"  repeat {r.name}: {r.count} iterations of "
+                             f"{', '.join(r.passes)}, ping-ponging")
+            open_repeat = p.repeat
+            mine, written = versions[p.name]
+            reads = [f"{q} (last step)" if q not in mine else f"{q} ({version(mine[q])})"
+                     for q in p.reads]
+            reads += [f"{q} (this step)" if q not in mine else f"{q} ({version(mine[q])})"
+                      for q in p.reads_new]
             reads += [f"texture {t}" for t in p.textures]
             q = self.quantities[p.writes]
             what = p.writes
+            if written is not None:
+                what += f" ({version(written)})"
             if parts > 1:
                 what += f" part {part + 1}/{parts} ({q.part_axes(fmt, part)})"
-            lines.append(f"  {i}. {p.name}: {p.frag} writes {what}; reads "
+            where = f" over grid {q.domain.name}" if q.domain is not None else ""
+            indent = "    " if p.repeat else "  "
+            lines.append(f"{indent}{i}. {p.name}: {p.frag} writes {what}{where}; reads "
                          f"{', '.join(reads) if reads else 'nothing'}")
+        particle_buffers = {q: n for q, n in self.buffers.items()
+                            if self.quantities[q].domain is None}
         per_particle = sum(n * self.quantities[q].bytes_per_particle(fmt)
-                           for q, n in self.buffers.items())
-        others = ", ".join(f"{f} {sum(n * self.quantities[q].bytes_per_particle(f) for q, n in self.buffers.items())}"
+                           for q, n in particle_buffers.items())
+        others = ", ".join(f"{f} {sum(n * self.quantities[q].bytes_per_particle(f) for q, n in particle_buffers.items())}"
                            for f in ("rgba8", "rgba16f", "rgba32f") if f != fmt)
         lines.append(f"state textures ({fmt}): {self.texture_count_in(fmt)}, {per_particle} bytes "
                      f"per particle (in {others})")
@@ -129,13 +200,19 @@ class Plan:
             q = self.quantities[name]
             why = ("ping-pong: last step's value is read" if n == 2
                    else "single: only this step's value is read")
+            if name in self.versioned:
+                why = "ping-pong: written more than once a step, swapped after each write"
             parts = q.parts(fmt)
             count = f"{n}" if parts == 1 else f"{parts} parts x {n}"
             size = ""
-            if texel_count is not None:
-                size = f", {format_bytes(n * parts * texel_count * bytes_per_texel(q.format_in(fmt)))}"
+            texels = (q.domain.shape[0] * q.domain.shape[1] if q.domain is not None
+                      else texel_count)
+            if texels is not None:
+                size = f", {format_bytes(n * parts * texels * bytes_per_texel(q.format_in(fmt)))}"
             pinned = f", always {q.storage}" if q.storage else ""
-            lines.append(f"  {name} ({q.components} components{pinned}): {count} ({why}{size})")
+            where = f", on grid {q.domain.name}" if q.domain is not None else ""
+            lines.append(f"  {name} ({q.components} components{pinned}{where}): {count} "
+                         f"({why}{size})")
         for name, data in self.textures.items():
             if hasattr(data, "block"):  # astc.Compressed
                 kind = f"ASTC {data.block[0]}x{data.block[1]} ({data.bits_per_texel:.2f} bits a texel)"
@@ -168,15 +245,37 @@ class PassGraph:
         self.quantities = {}
         self.passes = []
         self.textures = {}
+        self.grids = {}
+        self.repeats = {}
         self.notes = []  # lines for the printed plan (a fallback taken, say)
+        self._repeating = None  # the Repeat being declared (inside ``with g.repeat(...)``)
 
-    def quantity(self, name, lo, hi, components=None, storage=None):
+    def grid(self, name, shape, box=None):
+        """Declare a grid domain of ``shape`` (W, H) cells over the world rectangle ``box``
+        ((x0, y0), (x1, y1); default the cells themselves); returns its
+        :class:`~es2particles.frame.state.Grid`, to give ``quantity(..., domain=)``."""
+        if name in self.grids or name == "particles":
+            raise GraphError(f"grid {name!r} is declared twice" if name in self.grids else
+                             "'particles' is the particles' domain: name the grid otherwise")
+        self.grids[name] = Grid(name, shape, box)
+        return self.grids[name]
+
+    def quantity(self, name, lo, hi, components=None, storage=None, domain=None):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
         per component; ``components`` defaults to their length, else 2); ``storage`` pins its
-        format (see :class:`~es2particles.frame.state.Quantity`); returns it."""
+        format (see :class:`~es2particles.frame.state.Quantity`); ``domain``: the grid it lives
+        on (a :meth:`grid` or its name; None: the particles); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
-        self.quantities[name] = Quantity(name, lo, hi, components, storage)
+        if isinstance(domain, str):
+            if domain not in self.grids:
+                raise GraphError(f"quantity {name!r}: grid {domain!r} is not declared (grids: "
+                                 f"{', '.join(self.grids) or 'none'})")
+            domain = self.grids[domain]
+        elif domain is not None and self.grids.get(getattr(domain, "name", None)) is not domain:
+            raise GraphError(f"quantity {name!r}: its domain must be a grid this graph declares "
+                             "(PassGraph.grid)")
+        self.quantities[name] = Quantity(name, lo, hi, components, storage, domain)
         return self.quantities[name]
 
     def texture(self, name, data):
@@ -208,23 +307,70 @@ class PassGraph:
                                   defines or {}))
 
     def add_pass(self, new):
-        """Add a :class:`Pass`; returns it."""
+        """Add a :class:`Pass` (to the repeat being declared, inside ``with repeat()``);
+        returns it."""
         for other in self.passes:
             if other.name == new.name:
                 raise GraphError(f"two passes are named {new.name!r}")
-            if other.writes == new.writes:
-                raise GraphError(f"passes {other.name!r} and {new.name!r} both write "
-                                 f"{new.writes!r}; a quantity has one writer per step")
+        if self._repeating is not None:
+            new = replace(new, repeat=self._repeating)
+            r = self.repeats[self._repeating]
+            self.repeats[r.name] = replace(r, passes=r.passes + (new.name,))
         self.passes.append(new)
         return new
 
+    @contextmanager
+    def repeat(self, name, count, warm_start=None):
+        """Passes added inside ``with g.repeat(name, count):`` run ``count`` times in a row each
+        step (one whole round of them, then the next), each iteration reading the last one's
+        writes: a Jacobi solve is one pass writing and reading the pressure. ``count`` is a
+        whole number >= 1; the plan lists the group with its count.
+
+        ``warm_start``: {quantity: factor}, where the iterations start from: a quantity is state,
+        so by default they start from last step's solution as it is (factor 1); a factor in
+        [0, 1) adds a pass before the group that scales it (``lib/warm_start.frag``; 0: from
+        zero, a cold start)."""
+        if self._repeating is not None:
+            raise GraphError(f"repeat {name!r} is inside repeat {self._repeating!r}: repeats do "
+                             "not nest")
+        if name in self.repeats:
+            raise GraphError(f"two repeats are named {name!r}")
+        count = int(check_range(f"repeat {name!r} count", count, 1, 2 ** 16, integer=True))
+        for q, factor in (warm_start or {}).items():
+            check_range(f"repeat {name!r} warm start of {q!r}", factor, 0.0, 1.0)
+            if q not in self.quantities:
+                raise GraphError(f"repeat {name!r}: warm start of {q!r}, which is not a declared "
+                                 "quantity")
+            if factor != 1:
+                self.add(f"{name}_warm_start", "lib/warm_start.frag", writes=q, reads=[q],
+                         uniforms={"u_warm": float(factor)}, defines={"WARM_READ": f"read_{q}"})
+        self.repeats[name] = Repeat(name, count)
+        self._repeating = name
+        try:
+            yield self.repeats[name]
+        finally:
+            self._repeating = None
+        if not self.repeats[name].passes:
+            raise GraphError(f"repeat {name!r} holds no pass")
+
+    def writers(self, quantity):
+        """The passes writing ``quantity``, in declaration order."""
+        return [p for p in self.passes if p.writes == quantity]
+
     def writer(self, quantity):
-        return next((p for p in self.passes if p.writes == quantity), None)
+        """The first pass writing ``quantity`` (None: none)."""
+        return next(iter(self.writers(quantity)), None)
+
+    def versioned(self):
+        """The quantities that may be written more than once a step: by several passes, or by
+        a pass in a repeat (whatever its count, so that its reads mean the same at any count)."""
+        return {q for q in self.quantities
+                if len(self.writers(q)) > 1 or any(p.repeat for p in self.writers(q))}
 
     def plan(self, outputs=None):
         """The :class:`Plan` computing ``outputs`` (default: every written quantity)."""
         if outputs is None:
-            outputs = [p.writes for p in self.passes]
+            outputs = list(dict.fromkeys(p.writes for p in self.passes))
         outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)  # one name or several
         if not outputs:
             raise ParameterError("outputs must name at least one quantity")
@@ -238,9 +384,12 @@ class PassGraph:
         needed = self._needed(outputs)
         ordered = self._order([p for p in self.passes if p.name in needed])
         used = {p.writes for p in ordered}
+        versioned = self.versioned() & used
         last_step = {q for p in ordered for q in p.reads}
-        buffers = {q: (2 if q in last_step else 1) for q in self.quantities if q in used}
+        buffers = {q: (2 if q in last_step or q in versioned else 1)
+                   for q in self.quantities if q in used}
         sampled = {t for p in ordered for t in p.textures}
+        planned = {p.repeat for p in ordered if p.repeat}
         return Plan(
             passes=ordered,
             quantities={q: self.quantities[q] for q in buffers},
@@ -250,6 +399,10 @@ class PassGraph:
             left_out_quantities=[q for q in self.quantities if q not in buffers],
             textures={t: data for t, data in self.textures.items() if t in sampled},
             left_out_textures=[t for t in self.textures if t not in sampled],
+            versioned=tuple(q for q in self.quantities if q in versioned),
+            repeats={n: r for n, r in self.repeats.items() if n in planned},
+            grids={g: grid for g, grid in self.grids.items()
+                   if any(self.quantities[q].domain is grid for q in buffers)},
         )
 
     def uniform_names(self):
@@ -273,19 +426,107 @@ class PassGraph:
                                      f"declared (declared: {', '.join(self.textures) or 'none'})")
 
     def _needed(self, outputs):
-        """Names of the passes the outputs depend on, through either kind of read."""
-        needed, todo = set(), list(outputs)
+        """Names of the passes the outputs depend on, through either kind of read: every writer
+        of a needed quantity, and every pass of a repeat one of whose passes is needed."""
+        needed, todo, seen = set(), list(outputs), set()
         while todo:
-            writer = self.writer(todo.pop())
-            if writer.name not in needed:
-                needed.add(writer.name)
-                todo.extend(writer.reads + writer.reads_new)
+            q = todo.pop()
+            if q in seen:
+                continue
+            seen.add(q)
+            for writer in self.writers(q):
+                group = ([self._pass(n) for n in self.repeats[writer.repeat].passes]
+                         if writer.repeat else [writer])
+                for p in group:
+                    if p.name not in needed:
+                        needed.add(p.name)
+                        todo.extend((p.writes,) + p.reads + p.reads_new)
         return needed
 
-    def _order(self, passes):
-        """Topological order over this-step reads, declaration order among equals."""
-        ordered, placed, visiting = [], set(), []
+    def _pass(self, name):
+        return next(p for p in self.passes if p.name == name)
+
+    def _dependencies(self, passes):
+        """pass name -> names of the passes that must run before it. A this-step read follows
+        the write it reads; a versioned quantity's writers keep their declared order, each
+        read of one of its versions comes before the write that replaces it, and a read of a
+        version not yet written is an error naming the pass and the quantity."""
+        deps = {p.name: [] for p in passes}
+        versioned = self.versioned()
         by_output = {p.writes: p for p in passes}
+        index = {p.name: i for i, p in enumerate(passes)}
+        writers = {q: [p for p in passes if p.writes == q] for q in versioned}
+
+        def loops_on(p, q):  # p repeats, and its repeat writes q: the last iteration's version
+            return p.repeat is not None and any(
+                self._pass(n).writes == q for n in self.repeats[p.repeat].passes)
+
+        for p in passes:
+            for q in p.reads_new:
+                if q not in versioned:
+                    if q == p.writes:
+                        raise GraphError(f"pass {p.name!r} cannot read this step's value of "
+                                         f"{q!r}, which it writes itself")
+                    deps[p.name].append(by_output[q].name)
+                    continue
+                before = [w for w in writers[q] if index[w.name] < index[p.name]]
+                if not before and not loops_on(p, q):
+                    raise GraphError(f"pass {p.name!r} reads this step's {q!r}, but no pass "
+                                     f"declared before it writes {q!r}: that version is not "
+                                     "written yet (declare a writer first, or read last step's "
+                                     "value with reads=)")
+                if before:
+                    deps[p.name].append(before[-1].name)
+                after = [w for w in writers[q] if index[w.name] > index[p.name]]
+                if after and after[0].name != p.name:
+                    deps[after[0].name].append(p.name)  # read before it is replaced
+            for q in p.reads:
+                if q not in versioned:
+                    continue
+                if loops_on(p, q):
+                    raise GraphError(f"pass {p.name!r} repeats in {p.repeat!r}, which writes "
+                                     f"{q!r}: from its second iteration on, last step's {q!r} "
+                                     "is gone; read the latest version with reads_new=")
+                chain = writers[q]
+                if p.writes == q and p is not chain[0]:
+                    raise GraphError(f"pass {p.name!r} reads last step's {q!r}, but pass "
+                                     f"{chain[0].name!r} writes {q!r} before it in this step: "
+                                     "read this step's latest version with reads_new=")
+                # Last step's value is in the pair until the second write: read before the first
+                # (the front), or after it (the back), never after the second.
+                before = [w for w in chain if index[w.name] < index[p.name]]
+                if len(before) > 1 or (before and before[0].repeat):
+                    raise GraphError(f"pass {p.name!r} reads last step's {q!r}, but passes "
+                                     f"{', '.join(w.name for w in before)} write {q!r} before "
+                                     "it in this step and its pair holds two versions: read "
+                                     "this step's latest with reads_new=, or read it earlier")
+                if before:
+                    deps[p.name].append(before[0].name)
+                following = [w for w in chain if index[w.name] > index[p.name]]
+                if following:
+                    deps[following[0].name].append(p.name)  # read before it goes
+        for q, chain in writers.items():
+            for earlier, later in zip(chain, chain[1:]):
+                deps[later.name].append(earlier.name)
+        return deps
+
+    def last_step_after_a_write(self, passes):
+        """{(pass name, quantity)} of the reads of last step's value of a versioned quantity
+        made after its first write (in run order ``passes``): that value is in the back of the
+        pair then."""
+        out, written = set(), set()
+        versioned = self.versioned()
+        for p in passes:
+            out |= {(p.name, q) for q in p.reads if q in versioned and q in written}
+            written.add(p.writes)
+        return out
+
+    def _order(self, passes):
+        """Topological order over the dependencies (:meth:`_dependencies`), declaration order
+        among equals; a repeat's passes must come out together."""
+        ordered, placed, visiting = [], set(), []
+        by_name = {p.name: p for p in passes}
+        deps = self._dependencies(passes)
 
         def visit(p):
             if p.name in placed:
@@ -295,12 +536,20 @@ class PassGraph:
                 raise GraphError("passes form a cycle through this step's reads: "
                                  + " -> ".join(cycle))
             visiting.append(p.name)
-            for q in p.reads_new:
-                visit(by_output[q])
+            for name in deps[p.name]:
+                visit(by_name[name])
             visiting.pop()
             placed.add(p.name)
             ordered.append(p)
 
         for p in passes:
             visit(p)
+        for r in self.repeats.values():
+            at = [i for i, p in enumerate(ordered) if p.repeat == r.name]
+            if at and (at[-1] - at[0] + 1 != len(at)
+                       or [ordered[i].name for i in at] != list(r.passes)):
+                raise GraphError(f"the passes of repeat {r.name!r} ({', '.join(r.passes)}) must "
+                                 "run together and in their order, but the reads put "
+                                 f"{', '.join(p.name for p in ordered[at[0]:at[-1] + 1])} "
+                                 "between them")
         return ordered

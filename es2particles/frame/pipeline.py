@@ -268,12 +268,14 @@ class Pipeline:
         return Picture(self.image())
 
     def state(self):
-        """Every simulated quantity, decoded to world units: name -> (N, components) float64."""
+        """Every simulated quantity, decoded to world units: name -> (N, components) float64;
+        a grid quantity's (H, W, components), row 0 at the bottom, values at cell centres."""
         return {name: self.sim.download(name) for name in self.sim.buffers}
 
     def save_state(self, path):
         """Write the state to ``path`` (.npz): each quantity decoded to world units, float64
-        (N, components), under its name; and what a run resumes from, byte for byte: each
+        (N, components), under its name (a grid quantity's (H, W, components), row 0 at the
+        bottom); and what a run resumes from, byte for byte: each
         part's texels as stored (``texels.NAME.PART``) and the scene, count, format and steps
         done (``meta``, JSON)."""
         import json
@@ -317,7 +319,7 @@ class Pipeline:
             raise ParameterError(f"{where} is the state of another run: {'; '.join(differ)}")
         for name, buffer in self.sim.buffers.items():
             parts = [arrays.get(f"texels.{name}.{part}") for part in range(buffer.parts)]
-            shape = (self.sim.count, 4)
+            shape = (buffer.layout.count, 4)  # a grid quantity's cells, or the particles
             if any(p is None or p.shape != shape or p.dtype != buffer.read_texels().dtype
                    for p in parts):
                 raise ParameterError(f"{where} lacks quantity {name!r} as this run stores it "

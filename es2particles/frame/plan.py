@@ -171,7 +171,10 @@ class Stage:
     1). ``repeat``: uniform sets, one draw each (the sort's merge passes), of which ``per_frame``
     are drawn each frame, continuing where the last frame stopped (None: all). ``slice``: points
     per draw call where a CPU rasteriser draws better in slices. ``step``: a simulation pass (run
-    every step) rather than a stage of the frame."""
+    every step) rather than a stage of the frame. ``swap``: its target's pair swaps right after
+    it (the last draw of a write of a versioned quantity: the next read sees it). ``loop``:
+    (name, count) of the repeat it belongs to: consecutive stages of one loop run ``count``
+    times in a row."""
 
     name: str
     kind: str
@@ -195,6 +198,8 @@ class Stage:
     per_frame: int = None
     slice: int = None
     step: bool = False
+    swap: bool = False
+    loop: tuple = None
     what: str = ""
 
     @property
@@ -302,6 +307,11 @@ class FramePlan:
     left_out: list = field(default_factory=list)
     notes: list = field(default_factory=list)
     settings: dict = field(default_factory=dict)
+    layouts: dict = field(default_factory=dict)  # grid name -> its Layout
+
+    def layout_of(self, quantity):
+        """The :class:`~es2particles.frame.state.Layout` of ``quantity``'s domain."""
+        return self.layout if quantity.domain is None else self.layouts[quantity.domain.name]
 
     @property
     def step_stages(self):
@@ -394,6 +404,7 @@ class PlanBuilder:
         self.left_out, self.notes = [], []
         self.layout = self.format = self.format_note = self.rounding = self.graph_plan = None
         self.pass_graph = None
+        self.layouts = {}
         self.size, self.accumulate = None, 1
 
     def finish(self, present, **more):
@@ -401,7 +412,7 @@ class PlanBuilder:
         return FramePlan(scene=self.scene_name, layout=self.layout, format=self.format,
                          format_note=self.format_note, rounding=self.rounding,
                          graph=self.graph_plan, pass_graph=self.pass_graph,
-                         resources=self.resources,
+                         resources=self.resources, layouts=self.layouts,
                          vertices=self.vertices, stages=self.stages, present=present,
                          accumulate=self.accumulate, left_out=self.left_out, notes=self.notes,
                          **more)
@@ -472,14 +483,17 @@ class PlanBuilder:
         back (``bindings.stage_interface(..., attributes=True)``)."""
         return {name: Ref(q, part) for name, (q, part) in interface.attributes.items()}
 
-    def state_inputs(self, interface):
+    def state_inputs(self, interface, versioned=(), behind=()):
         """The :class:`Ref` of each sampler of a generated interface (quantities and scene
-        textures)."""
+        textures). A ``versioned`` quantity's pair swaps after each write: its front is always
+        the latest version, and last step's value, read after the first write (a quantity of
+        ``behind``), is in the back."""
         out = {}
         for sampler, source in interface.samplers.items():
             if source[0] == "quantity":
                 _, q, part, this_step = source
-                out[sampler] = Ref(q, part, "written" if this_step else "front")
+                back = (this_step and q not in versioned) or q in behind
+                out[sampler] = Ref(q, part, "written" if back else "front")
             else:
                 out[sampler] = Ref(source[1])
         return out
@@ -497,19 +511,34 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
     caps = builder.caps
     check_rounding(rounding)
     plan = graph.plan(outputs)
-    layout = Layout.for_count(count, caps.max_texture_size)
+    if count is None:  # a grid solver alone: no particle texture is made
+        on_particles = [q for q, quantity in plan.quantities.items() if quantity.domain is None]
+        if on_particles:
+            raise ParameterError(f"the particle count is needed: quantities "
+                                 f"{', '.join(on_particles)} live on the particles")
+        layout = Layout(0, 1, 1)
+    else:
+        layout = Layout.for_count(count, caps.max_texture_size)
     fmt, note = resolve_format(caps, fmt)
     builder.graph_plan, builder.layout, builder.format = plan, layout, fmt
     builder.pass_graph = graph
     builder.format_note, builder.rounding = note, rounding
+    builder.layouts = {name: grid.layout(caps.max_texture_size)
+                       for name, grid in plan.grids.items()}
+
+    def layout_of(quantity):
+        return layout if quantity.domain is None else builder.layouts[quantity.domain.name]
+
     for name, n in plan.buffers.items():
         q = plan.quantities[name]
         if q.storage and not caps.renderable.get(q.storage):
             raise CapabilityError(f"quantity {name!r} is pinned to {q.storage}, which cannot be "
                                   f"rendered to on {caps.renderer}")
-        builder.resource(Resource(name, "state", layout.size, q.format_in(fmt), parts=q.parts(fmt),
-                                  buffers=n, swap="step" if n == 2 else None, quantity=q,
-                                  what=f"quantity, {q.components} components"))
+        swap = "write" if name in plan.versioned else "step" if n == 2 else None
+        where = f", on grid {q.domain.name}" if q.domain is not None else ""
+        builder.resource(Resource(name, "state", layout_of(q).size, q.format_in(fmt),
+                                  parts=q.parts(fmt), buffers=n, swap=swap, quantity=q,
+                                  what=f"quantity, {q.components} components{where}"))
     for name, data in plan.textures.items():
         compressed = not isinstance(data, np.ndarray)
         fmt_of = "rgba8" if compressed else {np.dtype(np.uint8): "rgba8",
@@ -518,26 +547,34 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
         size = (data.width, data.height) if compressed else (data.shape[1], data.shape[0])
         builder.resource(Resource(name, "image", size, fmt_of, data=data,
                                   what="scene texture"))
+    behind = graph.last_step_after_a_write(plan.passes)
     for spec, part, parts in plan.draws(fmt):
         interface = pass_interface(spec, graph.quantities, fmt, part)
         stage_name = spec.stage(part)
         source = expand(spec.frag, spec.defines, interface.lines, interface.epilogue)
         _, referenced = _names(source)
         for sampler, (kind, what) in ((n, v[:2]) for n, v in interface.samplers.items()):
-            call = f"read_{what}" if kind == "quantity" else sampler
-            if call not in referenced:
+            calls = [sampler]
+            if kind == "quantity":  # a grid's quantity has three accessors; any of them reads
+                grid = graph.quantities[what].domain is not None
+                calls = [f"read_{what}"] + ([f"{what}_at", f"sample_{what}"] if grid else [])
+            if not set(calls) & referenced:
                 raise ParameterError(f"{stage_name} ({spec.frag}) declares it reads {kind} "
-                                     f"{what!r} but its shader never uses {call}")
+                                     f"{what!r} but its shader never uses {' or '.join(calls)}")
         q = plan.quantities[spec.writes]
         what = f"part {part + 1}/{parts} ({q.part_axes(fmt, part)})" if parts > 1 else ""
+        loop = plan.repeats[spec.repeat] if spec.repeat else None
         builder.stage(Stage(
             stage_name, "pass", spec.frag, defines=dict(spec.defines), interface=interface,
-            inputs=builder.state_inputs(interface), target=Ref(spec.writes, part),
+            inputs=builder.state_inputs(interface, plan.versioned,
+                                        {q for name, q in behind if name == spec.name}),
+            target=Ref(spec.writes, part),
             uniforms={name: uniform_value(name, value, interface.uniforms[name])
                       for name, value in spec.uniforms.items()},
-            generated=generated_values(interface, layout),
+            generated=generated_values(interface, layout_of(q)),
             frame_uniforms={"u_step": ("step",)} if "u_step" in referenced else {},
-            step=True, what=what))
+            step=True, swap=spec.writes in plan.versioned and part == parts - 1,
+            loop=(loop.name, loop.count) if loop else None, what=what))
     builder.left_out += [f"pass {p.name}" for p in plan.left_out_passes]
     builder.left_out += [f"quantity {q}" for q in plan.left_out_quantities]
     builder.left_out += [f"texture {t}" for t in plan.left_out_textures]
@@ -570,7 +607,8 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     graph = scene_graph(scene, caps)
     rendering.check_reads(scene, graph)
     b.size = size
-    plan_simulation(b, graph, rendering.reads, b.setting("particles", defaults.particles),
+    outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
+    plan_simulation(b, graph, outputs, b.setting("particles", defaults.particles),
                     b.setting("format", "rgba8"), b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)
     culled = _cull(b.stages, present)

@@ -37,8 +37,9 @@ class Simulation:
         The owner of every GL object made here.
     graph : PassGraph
         The passes and quantities.
-    count : int
-        Number of particles, 1 .. max_texture_size**2.
+    count : int or None
+        Number of particles, 1 .. max_texture_size**2; None where no planned quantity lives
+        on the particles (a grid solver alone).
     outputs : list of str, optional
         Quantities wanted; passes and textures they do not need are left out (see ``plan``).
     fmt : str
@@ -52,7 +53,7 @@ class Simulation:
         keeps float32's statistics where a 16-bit grid would alias).
     """
 
-    def __init__(self, ctx, graph, count, outputs=None, fmt="rgba8", rounding="nearest"):
+    def __init__(self, ctx, graph, count=None, outputs=None, fmt="rgba8", rounding="nearest"):
         self.executor = None
         check_rounding(rounding)
         ctx.make_current()
@@ -108,8 +109,13 @@ class Simulation:
         return self.buffers[name]
 
     def upload(self, name, values):
-        """Set quantity ``name`` to world values of shape (count, components)."""
-        self._buffer(name).upload(values)
+        """Set quantity ``name`` to world values of shape (count, components); a grid
+        quantity's as (H, W, components), row 0 at the bottom (or flat, (W * H, components))."""
+        buffer = self._buffer(name)
+        grid = buffer.quantity.domain
+        if grid is not None and np.ndim(values) >= 2 and np.shape(values)[:2] == grid.shape[::-1]:
+            values = np.reshape(values, (buffer.layout.count, -1))
+        buffer.upload(values)
 
     def fill_uniform(self, name, lo, hi, rng):
         """Set quantity ``name`` to values drawn uniformly from the box [lo, hi] (one bound per
@@ -120,8 +126,12 @@ class Simulation:
         buffer.fill_uniform(lo, span, rng)
 
     def download(self, name):
-        """World values (count, components), float64, of quantity ``name`` after the last step."""
-        return self._buffer(name).download()
+        """World values (count, components), float64, of quantity ``name`` after the last step;
+        a grid quantity's as (H, W, components), row 0 at the bottom, values at cell centres."""
+        buffer = self._buffer(name)
+        values = buffer.download()
+        grid = buffer.quantity.domain
+        return values if grid is None else values.reshape(grid.shape[1], grid.shape[0], -1)
 
     def set_uniform(self, name, value):
         """Set uniform ``name`` on every planned pass that declares it. The name must be declared

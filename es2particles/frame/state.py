@@ -1,7 +1,9 @@
-"""Particle state in textures: named quantities of 1 to 4 components, their layout, ping-pong.
+"""State in textures: named quantities of 1 to 4 components, their layout, ping-pong.
 
-One quantity (position, velocity, colour, ...) is 1 to 4 numbers per particle, one texel per
-particle. In the default ``rgba8`` format each number is 16-bit fixed point over the quantity's
+One quantity (position, velocity, colour, ...) is 1 to 4 numbers per element, one texel per
+element. An element is a particle (the default domain) or a cell of a :class:`Grid` (a W x H
+grid of its own size: a fluid's velocity, a pressure), whose texture is the grid itself, cell
+(i, j) at texel (i, j), row 0 at the bottom. In the default ``rgba8`` format each number is 16-bit fixed point over the quantity's
 declared world range [lo, hi] (see ``twins/pack.py``), two numbers to a texel, so a quantity of three
 or four components spans two textures (its *parts*); ``rgba16f``/``rgba32f`` store the values
 themselves, clamped into the range, up to four in one texture. Particle i lives at texel
@@ -23,6 +25,71 @@ AXES = "xyzw"
 
 
 @dataclass(frozen=True)
+class Grid:
+    """A domain of W x H cells: quantities declared on it have one texel per cell, in a texture
+    of exactly W x H texels (cell (i, j) at texel (i, j)). ``box``: the world rectangle
+    ((x0, y0), (x1, y1)) the grid covers, cell (i, j) centred at x0 + (i + 0.5) (x1 - x0) / W;
+    by default the cells themselves, (0, 0) to (W, H). Its shaders see ``u_<name>_size`` (W, H)
+    and ``u_<name>_box`` (x0, y0, x1, y1)."""
+
+    name: str
+    shape: tuple
+    box: tuple = None
+
+    def __post_init__(self):
+        if not (isinstance(self.name, str) and self.name.isidentifier()):
+            raise ParameterError(f"grid name must be a GLSL identifier, got {self.name!r}")
+        shape = tuple(self.shape) if np.ndim(self.shape) == 1 else ()
+        if len(shape) != 2:
+            raise ParameterError(f"grid {self.name!r}: shape must be (W, H), got {self.shape!r}")
+        shape = tuple(int(check_range(f"grid {self.name!r} {axis}", n, 1, 2 ** 15, integer=True))
+                      for axis, n in zip(("W", "H"), shape))
+        box = ((0.0, 0.0), tuple(map(float, shape))) if self.box is None else self.box
+        try:
+            (x0, y0), (x1, y1) = box
+            box = ((check_range(f"grid {self.name!r} box x0", x0),
+                    check_range(f"grid {self.name!r} box y0", y0)),
+                   (check_range(f"grid {self.name!r} box x1", x1),
+                    check_range(f"grid {self.name!r} box y1", y1)))
+        except (TypeError, ValueError):
+            raise ParameterError(f"grid {self.name!r}: box must be ((x0, y0), (x1, y1)), got "
+                                 f"{self.box!r}") from None
+        if not (box[1][0] > box[0][0] and box[1][1] > box[0][1]):
+            raise ParameterError(f"grid {self.name!r}: box must have x1 > x0 and y1 > y0, got "
+                                 f"{box}")
+        object.__setattr__(self, "shape", shape)
+        object.__setattr__(self, "box", box)
+
+    @property
+    def cell(self):
+        """The world size (dx, dy) of a cell."""
+        (x0, y0), (x1, y1) = self.box
+        return ((x1 - x0) / self.shape[0], (y1 - y0) / self.shape[1])
+
+    def layout(self, max_texture_size):
+        """The grid's texture layout: one texel per cell; checks it fits the context."""
+        w, h = self.shape
+        if max(w, h) > max_texture_size:
+            raise ParameterError(f"grid {self.name!r} is {w}x{h} cells; this context's textures "
+                                 f"are at most {max_texture_size} texels a side")
+        return Layout(w * h, w, h)
+
+    def uniforms(self):
+        """``u_<name>_size`` and ``u_<name>_box``."""
+        (x0, y0), (x1, y1) = self.box
+        return {f"u_{self.name}_size": (float(self.shape[0]), float(self.shape[1])),
+                f"u_{self.name}_box": (float(x0), float(y0), float(x1), float(y1))}
+
+    def centres(self):
+        """World coordinates (H, W, 2) of the cell centres, float64, row 0 at the bottom."""
+        (x0, y0), (x1, y1) = self.box
+        w, h = self.shape
+        x = x0 + (np.arange(w) + 0.5) * (x1 - x0) / w
+        y = y0 + (np.arange(h) + 0.5) * (y1 - y0) / h
+        return np.stack(np.meshgrid(x, y), axis=-1)
+
+
+@dataclass(frozen=True)
 class Quantity:
     """A named per-particle quantity of 1 to 4 components with a world range [lo, hi] each.
 
@@ -37,6 +104,7 @@ class Quantity:
     hi: tuple
     components: int = None
     storage: str = None  # a format this quantity keeps whatever the simulation's (None: that)
+    domain: Grid = None  # the grid it lives on; None: the particles
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -60,9 +128,17 @@ class Quantity:
         object.__setattr__(self, "lo", lo)
         object.__setattr__(self, "hi", hi)
         object.__setattr__(self, "components", components)
+        if self.domain is not None and not isinstance(self.domain, Grid):
+            raise ParameterError(f"quantity {self.name!r}: domain must be a Grid (PassGraph.grid) "
+                                 f"or None for the particles, got {self.domain!r}")
         if self.storage is not None and self.storage not in FORMATS:
             raise ParameterError(f"quantity {self.name!r}: storage must be one of {list(FORMATS)} "
                                  f"or None, got {self.storage!r}")
+
+    @property
+    def domain_name(self):
+        """The name of the domain it lives on: its grid's, or "particles"."""
+        return "particles" if self.domain is None else self.domain.name
 
     def format_in(self, fmt):
         """The format this quantity is stored in within a simulation of format ``fmt``."""

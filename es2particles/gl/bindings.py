@@ -18,7 +18,14 @@ two can never disagree:
 - ``uniform sampler2D u_t`` for each scene texture ``t`` the pass samples;
 - each of the pass's own uniforms, typed from its value: a number is a float, 2 to 4 numbers a
   vec2..vec4, a (k, n) array a vecn[k];
-- ``u_state_size`` (texels, vec2) and ``u_count`` (particles); ``u_step`` comes with lib/state.glsl.
+- ``u_state_size`` (texels, vec2) and ``u_count`` (elements) of the domain the stage runs over;
+  ``u_step`` comes with lib/state.glsl;
+- for each grid ``G`` whose quantities a pass reads or writes: ``u_G_size`` (cells, vec2) and
+  ``u_G_box`` (its world rectangle x0, y0, x1, y1); for each grid quantity ``q`` read, beside
+  ``read_q(uv)``: ``q_at(cell)`` (the value of cell (i, j), clamped to the grid: stencils) and
+  ``sample_q(point)`` (bilinear at a world point, from the four decoded cells around it: linear
+  filtering of packed bytes would mix high and low bytes); a pass over a grid gets
+  ``grid_cell()`` (the (i, j) it computes) and ``grid_point()`` (that cell's centre).
 
 Pure Python, no GL: the executor compiles what is written here, and tests read it.
 """
@@ -126,8 +133,36 @@ def _reader(out, quantity, fmt, this_step, salt):
     for part, sampler in enumerate(samplers):
         out.declare(f"uniform sampler2D {sampler};", sampler, f"part {part + 1} of quantity {q!r}")
         out.samplers[sampler] = ("quantity", q, part, this_step)
+    grid = quantity.domain
+    # A grid's cells are read exactly (no jitter): a stencil's or a bilinear sample's four reads
+    # must see the values stored, not four independent samples of their codes.
     _read_function(out, q, c, fmt, [f"texture2D({s}, uv)" for s in samplers],
-                   None if quantity.storage else salt)
+                   None if quantity.storage or grid is not None else salt)
+    if grid is not None:
+        _grid_uniforms(out, grid)
+        g, kind = grid.name, GLSL_TYPES[c]
+        out.lines += [
+            f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
+            "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
+                 f"/ u_{g}_size);", "}",
+            f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, from decoded cells",
+            "{", f"    vec2 c = (point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * "
+                 f"u_{g}_size - 0.5;",
+            "    vec2 i = floor(c);", "    vec2 t = c - i;",
+            f"    return mix(mix({q}_at(i), {q}_at(i + vec2(1.0, 0.0)), t.x),",
+            f"               mix({q}_at(i + vec2(0.0, 1.0)), {q}_at(i + vec2(1.0, 1.0)), t.x), "
+            "t.y);", "}"]
+        out.owners.setdefault(f"{q}_at", f"quantity {q!r}")
+        out.owners.setdefault(f"sample_{q}", f"quantity {q!r}")
+
+
+def _grid_uniforms(out, grid):
+    """``u_G_size`` and ``u_G_box`` of grid ``G``, declared once."""
+    g = grid.name
+    if f"u_{g}_size" not in out.owners:
+        out.declare(f"uniform vec2 u_{g}_size;", f"u_{g}_size", f"the size of grid {g!r}")
+        out.declare(f"uniform vec4 u_{g}_box;", f"u_{g}_box", f"the box of grid {g!r}")
+        out.fixed.update(grid.uniforms())
 
 
 def _read_function(out, q, c, fmt, texels, salt):
@@ -222,6 +257,16 @@ def pass_interface(spec, quantities, fmt, part=0):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`)."""
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
+    grid = quantities[spec.writes].domain
+    if grid is not None:
+        _grid_uniforms(out, grid)
+        g = grid.name
+        out.declare("vec2 grid_cell()", "grid_cell", "the built-in grid_cell()")
+        out.lines += ["{", "    return floor(v_uv * u_%s_size);  // the cell (i, j) computed" % g,
+                      "}"]
+        out.declare("vec2 grid_point()", "grid_point", "the built-in grid_point()")
+        out.lines += ["{", f"    return u_{g}_box.xy + (grid_cell() + 0.5) / u_{g}_size * "
+                           f"(u_{g}_box.zw - u_{g}_box.xy);", "}"]
     for name in spec.reads:
         _reader(out, quantities[name], fmt, False, READ_SALTS["pass"])
     for name in spec.reads_new:

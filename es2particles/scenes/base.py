@@ -80,6 +80,9 @@ class Scene:
     name = ""
     view = (-1.0, -1.0, 1.0, 1.0)  # a 2D scene's world rectangle: x0, y0, x1, y1
     render_reads = ("position",)  # what a 2D scene's points read: position, and life to fade
+    # Quantities a run keeps in its plan beside those the rendering reads (and so in its saved
+    # state): a grid a picture does not draw, say.
+    saves = ()
     defaults = Defaults()
     # True where each particle lands near last frame's place (reseeded scenes): the renderer then
     # orders its draw by framebuffer tile once, ~10% off the draw on a CPU rasteriser.

@@ -673,9 +673,28 @@
   const swapped = Object.entries(plan.resources).filter(([, r]) => r.swap === "step")
     .map(([name]) => name);
 
+  // Rounds of the step, as executor.py's step_rounds makes them: a run of consecutive stages of
+  // one loop (a repeat of the pass graph) drawn its count of times, every other stage once. A
+  // stage with swap set swaps its target right after it (a versioned quantity's write).
+  const rounds = [];
+  for (const stage of stepStages) {
+    const last = rounds[rounds.length - 1];
+    const same = stage.loop && last && last.stages[last.stages.length - 1].loop
+      && last.stages[last.stages.length - 1].loop[0] === stage.loop[0];
+    if (same) last.stages.push(stage);
+    else rounds.push({ stages: [stage], count: stage.loop ? stage.loop[1] : 1 });
+  }
+
   function step() {
     if (grip) grip.beforeStep();
-    for (const stage of stepStages) run(stage);
+    for (const round of rounds) {
+      for (let i = 0; i < round.count; i += 1) {
+        for (const stage of round.stages) {
+          run(stage);
+          if (stage.swap) swap(stage.target[0]);
+        }
+      }
+    }
     for (const name of swapped) swap(name);
     stepsDone += 1;
   }

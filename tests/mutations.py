@@ -69,6 +69,7 @@ TRIG = "shaders/glsl100/lib/trig.glsl"
 ATTRACTOR = "shaders/glsl100/lib/attractor.glsl"
 MERGE = "shaders/glsl100/sort/merge.frag"
 KEY = "shaders/glsl100/sort/key.frag"
+WIND = "shaders/glsl100/wind/fluid.frag"
 
 MUTATIONS = (
     # --- packing -----------------------------------------------------------------------------
@@ -222,12 +223,47 @@ MUTATIONS = (
              ((LIFE, "bool born = life.x < -half_step && aged.x > -half_step;",
                "bool born = life.x > -half_step && aged.x > -half_step;"),),
              ("tests/test_collision.py", "tests/test_emitter.py")),
+    # --- grids (issue 39) --------------------------------------------------------------------
+    Mutation("iterations-not-ping-ponged", "grids",
+             "a versioned quantity's pair not swapped after a write: iterations reread one texture",
+             (("es2particles/frame/executor.py", "                    if stage.swap:\n",
+               "                    if False:\n"),),
+             ("tests/test_grids.py", "tests/test_wind.py")),
+    Mutation("warm-start-twice", "grids", "the warm start's factor applied twice",
+             (("shaders/glsl100/lib/warm_start.frag", "write(WARM_READ(v_uv) * u_warm);",
+               "write(WARM_READ(v_uv) * u_warm * u_warm);"),),
+             ("tests/test_grids.py", "tests/test_wind.py")),
+    Mutation("bilinear-half-cell-off", "grids", "sample_q's cell centres half a cell off",
+             (("es2particles/gl/bindings.py", 'f"u_{g}_size - 0.5;",', 'f"u_{g}_size;",'),),
+             ("tests/test_grids.py",)),
+    # --- the wind field ------------------------------------------------------------------------
+    Mutation("wind-divergence-sign", "wind", "the divergence's x flux with its sign flipped",
+             ((WIND, "(u_at(c + vec2(1.0, 0.0)) - u_at(c)) / u_cell.x",
+               "(u_at(c) - u_at(c + vec2(1.0, 0.0))) / u_cell.x"),),
+             ("tests/test_wind.py",)),
+    Mutation("wind-open-side-closed", "wind",
+             "the open side's pressure condition gone (zero gradient everywhere)",
+             ((WIND, "        return kind == WALL_OPEN ? -p : p;", "        return p;"),),
+             ("tests/test_wind.py",)),
+    Mutation("wind-stencil-off-by-one", "wind", "the Poisson stencil's lower neighbour two cells down",
+             ((WIND, "+ pressure_near(c, vec2(0.0, -1.0), p))",
+               "+ pressure_near(c, vec2(0.0, -2.0), p))"),),
+             ("tests/test_wind.py",)),
+    Mutation("wind-projection-wrong-cell", "wind", "a face's gradient taken from one cell only",
+             ((WIND, "float p_first = first ? pressure_at(c - d) : -p_second;",
+               "float p_first = first ? pressure_at(c) : -p_second;"),),
+             ("tests/test_wind.py",)),
+    Mutation("wind-lid-still", "wind", "a moving wall's tangential ghost as a still wall's",
+             ((WIND, ": kind == WALL_NOSLIP ? -value : 2.0 * speed - value;",
+               ": -value;"),),
+             ("tests/test_wind.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
 # named bugs first, chosen to fit CI's time.
 CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", "entry-carry-sign",
-             "curl-sign", "merge-keeps-larger", "life-ends-a-step-late")
+             "curl-sign", "merge-keeps-larger", "life-ends-a-step-late",
+             "iterations-not-ping-ponged", "wind-divergence-sign")
 
 
 def make_copy(folder):

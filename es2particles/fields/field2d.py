@@ -117,7 +117,7 @@ def walls(p, rect):
 
 # --- masks: a distance transform by jump flooding, in numpy -----------------------------------
 
-def load_mask(path, resolution):
+def load_mask(path, resolution, option="--shape"):
     """Boolean (h, w) solid mask from an image: alpha >= 50% where there is alpha, else dark
     (luminance < 50%) pixels are solid. Row 0 is the bottom of the scene.
 
@@ -128,7 +128,7 @@ def load_mask(path, resolution):
 
     from ..io.images import read_image
 
-    image = read_image(path, "--shape (a mask)", mode=None)
+    image = read_image(path, f"{option} (a mask)", mode=None)
     if "A" in image.getbands():
         pixels = np.asarray(image.getchannel("A"), dtype=np.float64) / 255 >= 0.5
     else:

@@ -276,8 +276,8 @@ class Pipeline:
         """Write the state to ``path`` (.npz): each quantity decoded to world units, float64
         (N, components), under its name (a grid quantity's (H, W, components), row 0 at the
         bottom); and what a run resumes from, byte for byte: each
-        part's texels as stored (``texels.NAME.PART``) and the scene, count, format and steps
-        done (``meta``, JSON)."""
+        part's texels as stored (``texels.NAME.PART``) and the scene, count, format, steps done
+        and, where the scene steps by a ``dt``, the simulated time (``meta``, JSON)."""
         import json
 
         from ..io.output import save_arrays
@@ -289,6 +289,9 @@ class Pipeline:
         meta = {"scene": self.scene.name, "particles": self.sim.count, "format": self.sim.fmt,
                 "steps_done": self.sim.steps_done,
                 "quantities": {n: b.parts for n, b in self.sim.buffers.items()}}
+        dt = getattr(getattr(self.scene, "params", None), "dt", None)
+        if isinstance(dt, float):  # the simulated time, where the scene steps by a dt
+            meta["time"] = self.sim.steps_done * dt
         arrays["meta"] = np.array(json.dumps(meta))
         return save_arrays(arrays, path)
 

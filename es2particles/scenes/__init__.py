@@ -17,16 +17,18 @@ BUILT_IN = {"dejong": "es2particles.scenes.dejong:DeJong",
             "fountain": "es2particles.scenes.fountain:Fountain",
             "collision3d": "es2particles.scenes.collision3d:Collision3D",
             "confetti": "es2particles.scenes.confetti:Confetti",
-            "smoke": "es2particles.scenes.smoke:Smoke"}
+            "smoke": "es2particles.scenes.smoke:Smoke",
+            "wind": "es2particles.scenes.wind:Wind"}
 # What ``from es2particles.scenes import X`` gives (name -> module), imported when first asked for.
 _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene": "base",
             "DeJong": "dejong", "Clifford": "clifford", "Collision": "collision",
             "Fountain": "fountain", "Collision3D": "collision3d", "Confetti": "confetti",
-            "Smoke": "smoke"}
+            "Smoke": "smoke", "Wind": "wind"}
 
 # The modules (what pdoc documents); the classes above are reached as attributes.
 __all__ = ["base", "attractor", "dejong", "clifford", "emitter", "collision", "fountain",
-           "collision3d", "confetti", "smoke", "field_compression", "installed_scenes", "scene_class",
+           "collision3d", "confetti", "smoke", "wind", "field_compression", "installed_scenes",
+           "scene_class",
            "ENTRY_POINT_GROUP", "BUILT_IN"]
 
 

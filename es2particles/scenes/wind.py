@@ -1,0 +1,398 @@
+"""The wind field: the article's first repository demo, a Navier-Stokes solver on a grid carrying
+particles, here with the fluid in ES 2.0 passes too (the article's repository solves it on the
+CPU).
+
+The air is a grid (``--grid WxH`` cells over ``--box W,H`` metres) of three quantities in the
+run's state format: ``wind`` (the velocity, m/s, cell-centred), ``divergence`` and ``pressure``.
+A step is Stam's stable fluids (``shaders/glsl100/wind/fluid.frag``, one define a pass):
+semi-Lagrangian advection (or MacCormack: ahead, behind, a limited correction), the wind's body
+force with gusts and the pointer's drag (and vorticity confinement), implicit viscosity by Jacobi
+iterations, the divergence, ``--pressure-iterations`` Jacobi iterations of the Poisson equation
+(from ``--warm-start`` of last step's pressure) and the projection. Walls and obstacles sit on
+the faces between cells, as ghost values (``wind/fluid.glsl``). The particles (default 2^20)
+take the article's step: a velocity pass relaxing toward the air's bilinear velocity, then a
+position pass; they are born again at a free random place when old, or when a step would take
+them out of the box or into an obstacle (``wind/particles.frag``).
+"""
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import ParameterError
+from ..frame.graph import PassGraph
+from ..frame.settings import Defaults
+from ..params import Params, param
+from ..twins.life import life_range, longest_life
+from .base import Scene
+
+WALL_KINDS = {"slip": 0.0, "noslip": 1.0, "open": 2.0}  # a number: a moving no-slip wall (3)
+SIDES = ("left", "right", "bottom", "top")
+ADVECTIONS = ("semi-lagrangian", "maccormack")
+MAX_GRID = 4096  # cells a side: beyond, the context's textures decide (and refuse)
+MAX_ALPHA = 1e4  # nu dt / dx^2 beyond which k Jacobi iterations leave almost all of the error
+
+
+@dataclass(frozen=True)
+class WindParams(Params):
+    """The wind scene's parameters (SI units: metres, seconds)."""
+
+    grid: str = param("256x256", text=True, metavar="WxH", help="the air's grid, in cells")
+    box: tuple = param(None, 1e-3, 1e4, count=2, unit="m", metavar="W,H", optional=True,
+                       help="the domain from (0, 0) at the lower left (default: 1 m high, as "
+                            "wide as the grid's aspect)")
+    dt: float = param(1 / 60, 1e-5, 1.0, unit="s", help="time step")
+    viscosity: float = param(0.0, 0.0, 1e3, unit="m^2/s",
+                             help="kinematic viscosity nu (implicit diffusion, by Jacobi "
+                                  "iterations)")
+    viscosity_iterations: int = param(20, 1, 1000, integer=True,
+                                      help="Jacobi iterations of the viscous diffusion a step")
+    pressure_iterations: int = param(40, 1, 10000, integer=True,
+                                     help="Jacobi iterations of the pressure solve a step")
+    warm_start: float = param(1.0, 0.0, 1.0,
+                              help="the share of last step's pressure the solve starts from")
+    advection: str = param("semi-lagrangian", choices=ADVECTIONS,
+                           help="how the wind carries itself: semi-Lagrangian (one bilinear "
+                                "backtrace) or MacCormack (ahead, behind, limited correction)")
+    vorticity: float = param(0.0, 0.0, 100.0, help="vorticity confinement epsilon (0: off)")
+    walls: str = param("open,open,slip,slip", text=True, metavar="LEFT,RIGHT,BOTTOM,TOP",
+                       help="each side: slip, noslip, open, or a number: a no-slip wall moving "
+                            "along itself at that many m/s (+y for left and right, +x for "
+                            "bottom and top)")
+    obstacle: str = param("circle:0.3,0.5,0.08", text=True,
+                          metavar="SHAPE[+SHAPE...]|MASK.png",
+                          help="obstacles: circle:X,Y,R and box:X,Y,HX,HY in metres, joined "
+                               "by '+', a PNG mask (dark or opaque pixels are solid) stretched "
+                               "over the box, or none")
+    wind: tuple = param((1.5, 0.0), -1e3, 1e3, count=2, unit="m/s^2", metavar="X,Y",
+                        help="the wind's body force")
+    gusts: tuple = param((0.5, 2.0), (0.0, 1e-3), (10.0, 1e4), count=2,
+                         metavar="AMPLITUDE,PERIOD",
+                         help="the force varies as 1 + AMPLITUDE sin(2 pi t / PERIOD) (PERIOD "
+                              "in s)")
+    max_speed: float = param(4.0, 1e-3, 1e4, unit="m/s",
+                             help="the velocity range of the air and the particles: faster "
+                                  "values are clamped")
+    relax: float = param(0.1, 0.0, 100.0, unit="s",
+                         help="how fast a particle takes the air's velocity (the article's "
+                              "0.1 s; 0: a tracer, exactly the air's)")
+    lifetime: tuple = param((2.0, 6.0), 1e-6, None, count=2, unit="s", metavar="MIN,MAX",
+                            help="lifetime range: an old particle is born again elsewhere")
+    drag: tuple = param((0.0, 0.0, 0.0, 0.0, 0.1), count=5, option=False,
+                        help="the pointer's drag: x, y, vx, vy (world units) and its radius")
+
+    def check(self):
+        self.shape  # parses --grid
+        self.wall_uniforms
+        lo, hi = self.lifetime
+        longest = longest_life(self.dt)
+        if not self.dt <= lo <= hi <= longest:
+            raise ParameterError(f"--lifetime must be MIN,MAX with dt {self.dt:g} <= MIN <= MAX "
+                                 f"<= {longest:.4g} s (the life clock counts 32512 steps of "
+                                 f"--dt), got {lo:g},{hi:g}")
+        dx, dy = self.cell
+        alpha = self.viscosity * self.dt / min(dx, dy) ** 2
+        if alpha > MAX_ALPHA:
+            raise ParameterError(
+                f"--viscosity {self.viscosity:g} gives nu dt / dx^2 = {alpha:.3g} on cells of "
+                f"{min(dx, dy):.3g} m: beyond {MAX_ALPHA:g}, {self.viscosity_iterations} Jacobi "
+                "iterations leave nearly all of the diffusion undone; lower --viscosity or --dt, "
+                "or use a coarser --grid")
+
+    @property
+    def shape(self):
+        """(W, H) cells, from ``--grid WxH``."""
+        match = re.fullmatch(r"\s*(\d{1,9})\s*[xX]\s*(\d{1,9})\s*", self.grid)
+        if not match:
+            raise ParameterError(f"--grid must be WxH cells, e.g. 256x256, got {self.grid!r}")
+        w, h = int(match[1]), int(match[2])
+        for axis, n in (("W", w), ("H", h)):
+            if not 2 <= n <= MAX_GRID:
+                raise ParameterError(f"--grid {axis} must be in [2, {MAX_GRID}] cells, got {n}")
+        return w, h
+
+    @property
+    def extent(self):
+        """(W, H) of the box in metres."""
+        if self.box is not None:
+            return self.box
+        w, h = self.shape
+        return (w / h, 1.0)
+
+    @property
+    def cell(self):
+        (w, h), (bw, bh) = self.shape, self.extent
+        return bw / w, bh / h
+
+    @property
+    def wall_uniforms(self):
+        """(kinds, speeds) of the four sides, as fluid.glsl's u_walls and u_wall_speed."""
+        parts = [p.strip() for p in self.walls.split(",")]
+        if len(parts) != 4:
+            raise ParameterError(f"--walls must be 4 values LEFT,RIGHT,BOTTOM,TOP, got "
+                                 f"{len(parts)} in {self.walls!r}")
+        kinds, speeds = [], []
+        for side, part in zip(SIDES, parts):
+            if part in WALL_KINDS:
+                kinds.append(WALL_KINDS[part])
+                speeds.append(0.0)
+                continue
+            try:
+                speed = float(part)
+            except ValueError:
+                raise ParameterError(f"--walls {side}: must be slip, noslip, open or a speed in "
+                                     f"m/s, got {part!r}") from None
+            if not abs(speed) <= self.max_speed:
+                raise ParameterError(f"--walls {side}: a moving wall's speed must be in "
+                                     f"[-{self.max_speed:g}, {self.max_speed:g}] m/s (--max-speed), "
+                                     f"got {part}")
+            kinds.append(3.0)
+            speeds.append(speed)
+        return tuple(kinds), tuple(speeds)
+
+
+def solid_mask(spec, shape, extent):
+    """Boolean (H, W) of the cells an obstacle holds, row 0 at the bottom: a cell is solid where
+    its centre is inside a shape, or (a PNG mask) where any of its pixels is solid."""
+    w, h = shape
+    if spec.strip().lower() == "none":
+        return np.zeros((h, w), bool)
+    if spec.lower().endswith(".png"):
+        from ..fields.field2d import load_mask
+
+        return load_mask(spec, (w, h), "--obstacle")
+    bw, bh = extent
+    x = (np.arange(w) + 0.5) * bw / w
+    y = (np.arange(h) + 0.5) * bh / h
+    x, y = np.meshgrid(x, y)
+    solid = np.zeros((h, w), bool)
+    for part in spec.split("+"):
+        kind, _, numbers = part.strip().partition(":")
+        counts = {"circle": 3, "box": 4}
+        try:
+            values = [float(v) for v in numbers.split(",")]
+        except ValueError:
+            values = []
+        if kind not in counts or len(values) != counts[kind] or \
+                not all(np.isfinite(v) for v in values):
+            raise ParameterError(f"--obstacle must be circle:X,Y,R or box:X,Y,HX,HY (metres) "
+                                 f"joined by '+', a PNG mask or none; got {part!r}")
+        if kind == "circle":
+            cx, cy, r = values
+            if r <= 0:
+                raise ParameterError(f"--obstacle {part!r}: the radius must be > 0")
+            solid |= (x - cx) ** 2 + (y - cy) ** 2 <= r * r
+        else:
+            cx, cy, hx, hy = values
+            if hx <= 0 or hy <= 0:
+                raise ParameterError(f"--obstacle {part!r}: the half sizes must be > 0")
+            solid |= (np.abs(x - cx) <= hx) & (np.abs(y - cy) <= hy)
+    return solid
+
+
+def texels(mask):
+    """A boolean mask (rows from the bottom) as an RGBA8 texture, r = 255 where set."""
+    out = np.zeros(mask.shape + (4,), np.uint8)
+    out[mask, 0] = 255
+    out[..., 3] = 255
+    return out
+
+
+class Wind(Scene):
+    """Wind round obstacles: a stable-fluids MAC grid in passes, carrying particles."""
+
+    name = "wind"
+    Params = WindParams
+    render_reads = ("position", "life")
+    saves = ("wind", "pressure", "divergence")  # kept in the plan and in --save-state
+    defaults = Defaults(particles=2 ** 20, point_size=1.0, steps=120, rounding="nearest")
+
+    def __init__(self, params=None, **given):
+        super().__init__(params, **given)
+        p = self.params
+        self.solid = solid_mask(p.obstacle, p.shape, p.extent)
+        if self.solid.all():
+            raise ParameterError("--obstacle fills the whole box: there is no air")
+        bw, bh = p.extent
+        self.view = (0.0, 0.0, bw, bh)
+
+    def graph(self, caps=None):
+        from ..gl.context import Capabilities
+
+        p = self.params
+        g = PassGraph()
+        (bw, bh), u = p.extent, p.max_speed
+        (w, h), (dx, dy) = p.shape, p.cell
+        largest = (caps or Capabilities.assumed()).max_texture_size
+        if max(w, h) + 1 > largest:  # the faces' grids are a cell longer
+            raise ParameterError(f"--grid {w}x{h}: this context's textures are at most "
+                                 f"{largest} texels a side, and the faces need one more than "
+                                 f"the cells: at most {largest - 1} cells a side")
+        # The MAC grid: pressure and divergence at the air's cell centres; u on the x faces,
+        # v on the y faces, each a grid of its own size whose box puts its cell centres on the
+        # faces (so sample_u and sample_v are plain bilinear reads).
+        air = g.grid("air", (w, h), box=((0.0, 0.0), (bw, bh)))
+        xfaces = g.grid("xfaces", (w + 1, h), box=((-dx / 2, 0.0), (bw + dx / 2, bh)))
+        yfaces = g.grid("yfaces", (w, h + 1), box=((0.0, -dy / 2), (bw, bh + dy / 2)))
+        faces = {"u": xfaces, "v": yfaces}
+        g.quantity("u", -u, u, components=1, domain=xfaces)
+        g.quantity("v", -u, u, components=1, domain=yfaces)
+        g.quantity("wind", -u, u, domain=air)  # at the cell centres: saved and drawn
+        # |divergence| <= 2 u (1/dx + 1/dy) through a cell's faces
+        reach = 2 * u * (1 / dx + 1 / dy)
+        g.quantity("divergence", -reach, reach, components=1, domain=air)
+        g.quantity("pressure", -self.pressure_reach, self.pressure_reach, components=1,
+                   domain=air)
+        xblocked, yblocked = self.blocked_faces()
+        g.texture("solid", texels(self.solid))
+        g.texture("xblocked", texels(xblocked))
+        g.texture("yblocked", texels(yblocked))
+        kinds, speeds = p.wall_uniforms
+        cell, dt = (float(dx), float(dy)), float(p.dt)
+        frag = "wind/fluid.frag"
+
+        def face_passes(name, writes, reads=(), reads_new=(), uniforms=None, define=None,
+                        more=()):
+            """One pass a component: ``writes`` and the reads name "{c}" for it."""
+            for c in ("u", "v"):
+                def named(q):
+                    return q.format(c=c)
+                g.add(f"{name}_{c}", frag, writes=named(writes),
+                      reads=[named(q) for q in reads], reads_new=[named(q) for q in reads_new],
+                      textures=["xblocked" if c == "u" else "yblocked"],
+                      uniforms=uniforms or {},
+                      defines={d: None for d in (define, "X_FACES" if c == "u" else "Y_FACES")
+                               + tuple(more)})
+
+        def air_pass(name, writes, reads_new, uniforms=None, defines=()):
+            g.add(name, frag, writes=writes, reads_new=reads_new, textures=["solid"],
+                  uniforms=uniforms or {}, defines={d: None for d in ("SOLID",) + defines})
+
+        for c in ("u", "v"):
+            if p.advection == "maccormack":
+                g.quantity(f"{c}_ahead", -u, u, components=1, domain=faces[c])
+                g.quantity(f"{c}_behind", -u, u, components=1, domain=faces[c])
+        if p.advection == "semi-lagrangian":
+            face_passes("advect", "{c}", reads=["u", "v"], uniforms={"u_dt": dt},
+                        define="ADVECT")
+        else:
+            face_passes("ahead", "{c}_ahead", reads=["u", "v"], uniforms={"u_dt": dt},
+                        define="AHEAD")
+            face_passes("behind", "{c}_behind", reads=["u", "v"], reads_new=["{c}_ahead"],
+                        uniforms={"u_dt": dt}, define="BEHIND")
+            face_passes("advect", "{c}", reads=["u", "v"],
+                        reads_new=["{c}_ahead", "{c}_behind"], uniforms={"u_dt": dt},
+                        define="CORRECT")
+        force = {"u_dt": dt, "u_force": tuple(map(float, p.wind)),
+                 "u_gusts": tuple(map(float, p.gusts)),
+                 "u_drag_at": tuple(map(float, (*p.drag[:2], max(p.drag[4], 1e-6),
+                                                1.0 if any(p.drag[2:4]) else 0.0))),
+                 "u_drag_velocity": tuple(map(float, p.drag[2:4]))}
+        reads_force = ["{c}"]
+        if p.vorticity > 0:
+            g.quantity("curl", -reach, reach, components=1, domain=air)
+            air_pass("curl", "curl", ["u", "v"], {"u_cell": cell}, ("CURL",))
+            force.update(u_vorticity=float(p.vorticity), u_cell=cell)
+            reads_force.append("curl")
+        face_passes("force", "{c}", reads_new=reads_force, uniforms=force, define="FORCE",
+                    more=("VORTICITY",) if p.vorticity > 0 else ())
+        if p.viscosity > 0:
+            for c in ("u", "v"):
+                g.quantity(f"{c}_held", -u, u, components=1, domain=faces[c])
+            face_passes("hold", "{c}_held", reads_new=["{c}"], define="HOLD")
+            with g.repeat("viscosity_iterations", p.viscosity_iterations):
+                face_passes("viscosity", "{c}", reads_new=["{c}", "{c}_held"],
+                            uniforms={"u_dt": dt, "u_cell": cell, "u_viscosity": p.viscosity,
+                                      "u_walls": kinds, "u_wall_speed": speeds},
+                            define="VISCOSITY")
+        # the projection: the divergence, the pressure's iterations (>= 1), the faces' gradient
+        air_pass("divergence", "divergence", ["u", "v"], {"u_cell": cell}, ("DIVERGENCE",))
+        with g.repeat("pressure_iterations", p.pressure_iterations,
+                      warm_start={"pressure": p.warm_start}):
+            air_pass("pressure", "pressure", ["pressure", "divergence"],
+                     {"u_cell": cell, "u_walls": kinds}, ("PRESSURE", "PRESSURE_NEIGHBOURS"))
+        face_passes("project", "{c}", reads_new=["{c}", "pressure"], uniforms={"u_cell": cell},
+                    define="PROJECT")
+        air_pass("centres", "wind", ["u", "v"], defines=("CENTRES",))
+        # the particles: velocity, then position, then the life clock
+        g.quantity("position", (0.0, 0.0), (bw, bh))
+        g.quantity("velocity", -u, u)
+        g.quantity("life", *life_range(p.dt), storage="rgba8")
+        relax = 1.0 if p.relax == 0 else float(min(1.0, p.dt / p.relax))
+        box = (0.0, 0.0, float(bw), float(bh))
+        moving = {"u_dt": dt, "u_box": box, "u_lifetime": tuple(map(float, p.lifetime))}
+        g.add("velocity", "wind/particles.frag", writes="velocity",
+              reads=["velocity", "position"], reads_new=["u", "v"],
+              uniforms={"u_relax": relax}, defines={"WRITE_VELOCITY": None})
+        g.add("position", "wind/particles.frag", writes="position",
+              reads=["position", "life"], reads_new=["velocity"], textures=["solid"],
+              uniforms={k: moving[k] for k in ("u_dt", "u_box")},
+              defines={"WRITE_POSITION": None})
+        g.add("life", "wind/particles.frag", writes="life", reads=["position", "life"],
+              reads_new=["velocity"], textures=["solid"], uniforms=moving,
+              defines={"WRITE_LIFE": None})
+        return g
+
+    def blocked_faces(self):
+        """Boolean (H, W + 1) and (H + 1, W): the x and y faces on a closed wall or beside an
+        obstacle, whose velocity is held at 0."""
+        kinds, _ = self.params.wall_uniforms
+        closed = [k != WALL_KINDS["open"] for k in kinds]
+        solid = self.solid
+        h, w = solid.shape
+        x = np.zeros((h, w + 1), bool)
+        x[:, 1:] |= solid
+        x[:, :-1] |= solid
+        x[:, 0] |= closed[0]
+        x[:, -1] |= closed[1]
+        y = np.zeros((h + 1, w), bool)
+        y[1:] |= solid
+        y[:-1] |= solid
+        y[0] |= closed[2]
+        y[-1] |= closed[3]
+        return x, y
+
+    @property
+    def pressure_reach(self):
+        """The pressure's range, +-(m^2/s): a quarter of --max-speed times the box's longer
+        side. The projection's pressure undoes one step's divergence, and at the defaults it
+        stays within +-0.06 (measured): the range keeps RGBA8's codes fine (the gradient divides
+        a code's error by a cell) with room to spare."""
+        return self.params.max_speed * max(self.params.extent) / 4
+
+    def start(self, count, rng):
+        """Particles alive at free places, ages spread over their lifetimes; the air still."""
+        p = self.params
+        bw, bh = p.extent
+        h, w = self.solid.shape
+        free = np.flatnonzero(~self.solid.ravel())
+        cells = rng.choice(free, count)
+        position = np.stack([(cells % w + rng.random(count)) * bw / w,
+                             (cells // w + rng.random(count)) * bh / h], 1)
+        lifetime = rng.uniform(*p.lifetime, count)
+        life = np.stack([np.floor(rng.random(count) * lifetime / p.dt) * p.dt, lifetime], 1)
+        return {"position": position, "life": life}
+
+    def background(self):
+        """The obstacles, drawn under the particles (row 0 at the bottom)."""
+        shade = np.zeros(self.solid.shape + (4,), np.uint8)
+        shade[self.solid] = (46, 58, 84, 255)
+        return shade
+
+    def describe(self):
+        p = self.params
+        (w, h), (bw, bh), (dx, dy) = p.shape, p.extent, p.cell
+        kinds, speeds = p.wall_uniforms
+        names = {v: k for k, v in WALL_KINDS.items()}
+        walls = ", ".join(f"{side} {names.get(k, f'moving at {s:g} m/s')}"
+                          for side, k, s in zip(SIDES, kinds, speeds))
+        solid = int(self.solid.sum())
+        return [f"air: {w}x{h} cells of {dx:.4g} x {dy:.4g} m over {bw:g} x {bh:g} m; "
+                f"{solid} cells solid ({p.obstacle}); walls: {walls}",
+                f"fluid: {p.advection} advection, viscosity {p.viscosity:g} m^2/s"
+                + (f" ({p.viscosity_iterations} Jacobi iterations)" if p.viscosity else "")
+                + f", {p.pressure_iterations} pressure iterations from {p.warm_start:g} of last "
+                  f"step's pressure, vorticity {p.vorticity:g}",
+                f"bilinear reads of the wind by hand: 4 fetches, decoded (the packed state is "
+                f"sampled NEAREST)"] + super().describe()

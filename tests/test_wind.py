@@ -1,0 +1,249 @@
+"""The wind scene (issue 39): its fluid step against an independent float64 reference
+(``wind_reference.py``) in each storage format, the pressure solve against scipy's exact sparse
+solve of the same discrete Poisson problem (the docs' divergence table, from saved states), a
+channel's steady flow against Poiseuille's parabola, the particles kept out of obstacles, and
+bad input refused in one line."""
+
+import numpy as np
+import pytest
+
+import wind_reference as ref
+from es2particles import Simulation
+from es2particles.cli import main
+from es2particles.scenes.wind import Wind
+
+CODE = 1 / 65024  # a 16-bit code of a unit range
+WALLS = {"slip": ref.SLIP, "noslip": ref.NOSLIP, "open": ref.OPEN}
+
+
+def reference_air(scene):
+    p = scene.params
+    kinds, speeds = p.wall_uniforms
+    return ref.Air(scene.solid, p.cell, walls=tuple(int(k) for k in kinds), speeds=speeds)
+
+
+def swirl(air):
+    """A smooth wind on the faces, up to ~2.4 m/s, still on blocked faces, and a pressure."""
+    def field(x, y):
+        return (1.5 + 0.8 * np.sin(3 * y + 1) * np.cos(2 * x),
+                0.6 * np.sin(2.5 * x) * np.cos(4 * y))
+    xb, yb = air.blocked()
+    fu, fv = air.faces("u"), air.faces("v")
+    u = np.where(xb, 0.0, field(fu[..., 0], fu[..., 1])[0])
+    v = np.where(yb, 0.0, field(fv[..., 0], fv[..., 1])[1])
+    h, w = air.shape
+    dx, dy = air.cell
+    x, y = np.meshgrid((np.arange(w) + 0.5) * dx, (np.arange(h) + 0.5) * dy)
+    return u, v, 0.05 * np.sin(2 * x) * np.cos(3 * y)
+
+
+# Every ghost at once: an open side, a no-slip one, a slip one, a moving lid; two obstacles.
+STEP_SCENE = dict(grid="48x32", box=(1.5, 1.0), walls="open,noslip,slip,0.5",
+                  obstacle="circle:0.5,0.45,0.12+box:1.1,0.7,0.08,0.05", pressure_iterations=30,
+                  warm_start=0.5)
+
+
+def one_step(ctx, scene, fmt, u0, v0, p0, step=7):
+    """The GPU's u, v, divergence, pressure and centred wind after one step from (u0, v0, p0)
+    as stored, and the stored start itself."""
+    names = ("u", "v", "divergence", "pressure", "wind")
+    with Simulation(ctx, scene.graph(), None, outputs=names, fmt=fmt) as sim:
+        for name, value in zip("uvp", (u0, v0, p0)):
+            sim.upload("pressure" if name == "p" else name, value[..., None])
+        stored = [sim.download(q)[..., 0] for q in ("u", "v", "pressure")]
+        sim.steps_done = step  # the gusts' time: step * dt
+        sim.step()
+        after = {q: sim.download(q) for q in names}
+    return stored, {q: a[..., 0] if a.shape[-1] == 1 else a for q, a in after.items()}
+
+
+def reference_step(scene, stored, advection="semi-lagrangian", step=7, **more):
+    p, air = scene.params, reference_air(scene)
+    return ref.step(air, *stored, p.dt, p.wind, p.gusts, step, p.pressure_iterations,
+                    p.warm_start, advection=advection, **more)
+
+
+@pytest.mark.parametrize("advection", ["semi-lagrangian", "maccormack"])
+@pytest.mark.parametrize("fmt", ["rgba32f", "rgba16f", "rgba8"])
+def test_one_fluid_step_matches_float64(gl, fmt, advection):
+    """The velocity error of one step as a share of max |u|, against the format's bound: float32
+    arithmetic (2^-18 of max |u|: a few dozen roundings of the step's sums); half floats' 11-bit
+    significand on each of a face's three writes (a whole unit in the last place, 2^-10 of the
+    value: llvmpipe converts to half by truncation, measured as errors up to 0.75 of a unit and
+    a mean of -1.5e-4 of max |u|), plus k pressure writes' rounding through the gradient (/dx);
+    RGBA8's half code on each write likewise (worst cases: every rounding the same way). The mean error is checked against one code: a half-code bias on the faces'
+    writes (1.5 codes over three) fails it."""
+    scene = Wind(**STEP_SCENE, advection=advection)
+    p, air = scene.params, reference_air(scene)
+    stored, got = one_step(gl, scene, fmt, *swirl(air))
+    want_u, want_v, want_div, want_p = reference_step(scene, stored, advection)
+    error = np.concatenate([(got["u"] - want_u).ravel(), (got["v"] - want_v).ravel()])
+    scale = max(np.abs(want_u).max(), np.abs(want_v).max())
+    k, dx = p.pressure_iterations, min(p.cell)
+    bound = {"rgba32f": 2 ** -18 * scale,
+             "rgba16f": 3 * 2 ** -10 * scale + k * 2 ** -10 * np.abs(want_p).max() / dx,
+             "rgba8": 3 * p.max_speed * CODE + k * scene.pressure_reach * CODE / dx}[fmt]
+    share = np.abs(error).max() / scale
+    print(f"{fmt} {advection}: max |u - u64| = {np.abs(error).max():.3e} ({share:.2e} of max |u| "
+          f"{scale:.2f}), bound {bound:.3e}; mean {error.mean():.2e}")
+    assert np.abs(error).max() <= bound
+    assert abs(error.mean()) <= {"rgba32f": 1e-7, "rgba16f": 2 ** -11 * scale,
+                                 "rgba8": 2 * p.max_speed * CODE}[fmt]
+    xb, yb = air.blocked()
+    assert np.all(got["u"][xb] == 0) and np.all(got["v"][yb] == 0)  # walls and obstacles hold
+    centred = ref.centres(air, got["u"], got["v"])
+    # the centres' own write: float32, half a half-float ulp, half a code of [-U, U]
+    tolerance = {"rgba32f": 0, "rgba16f": 2 ** -10 * scale, "rgba8": p.max_speed * CODE}[fmt]
+    tolerance += 2 ** -22 * scale
+    assert np.abs(got["wind"] - centred).max() <= tolerance
+
+
+def test_the_fluid_step_catches_a_wrong_wall(gl):
+    """The reference is sharp enough to see a wall's condition: the same step with the open
+    side taken as a slip wall differs from the GPU's by far more than the bound."""
+    scene = Wind(**STEP_SCENE)
+    air = reference_air(scene)
+    stored, got = one_step(gl, scene, "rgba32f", *swirl(air))
+    p = scene.params
+    closed = ref.Air(air.solid, air.cell, (ref.SLIP,) + air.walls[1:], air.speeds)
+    wrong = ref.step(closed, *stored, p.dt, p.wind, p.gusts, 7, p.pressure_iterations,
+                     p.warm_start)[0]
+    assert np.abs(got["u"] - wrong).max() > 1e3 * 2 ** -18 * np.abs(wrong).max()
+
+
+def test_viscosity_and_a_moving_lid_match_float64(gl):
+    """The viscous iterations, with every wall's tangential ghost (the lid moves at 0.5 m/s)."""
+    scene = Wind(**STEP_SCENE, viscosity=0.002, viscosity_iterations=7)
+    air = reference_air(scene)
+    stored, got = one_step(gl, scene, "rgba32f", *swirl(air))
+    want_u, want_v, _, _ = reference_step(scene, stored, nu=0.002, viscosity_iterations=7)
+    scale = max(np.abs(want_u).max(), np.abs(want_v).max())
+    assert np.abs(got["u"] - want_u).max() <= 2 ** -18 * scale
+    assert np.abs(got["v"] - want_v).max() <= 2 ** -18 * scale
+    still = ref.Air(air.solid, air.cell, air.walls, (0.0, 0.0, 0.0, 0.0))
+    p = scene.params
+    wrong = ref.step(still, *stored, p.dt, p.wind, p.gusts, 7, p.pressure_iterations,
+                     p.warm_start, nu=0.002, viscosity_iterations=7)[0]
+    assert np.abs(got["u"] - wrong).max() > 100 * 2 ** -18 * scale  # the lid is felt
+
+
+def saved_run(tmp_path, name, *options):
+    """The arrays of a run's --save-state (a small wind, its particles few)."""
+    state, out = tmp_path / f"{name}.npz", tmp_path / f"{name}.png"
+    assert main(["run", "wind", "--particles", "1024", "--size", "32x32", *options,
+                 "--save-state", str(state), "--out", str(out)]) == 0
+    with np.load(state) as data:
+        return {k: data[k] for k in data.files}
+
+
+def divergence_table(tmp_path, iterations=(10, 20, 40, 80), steps=20, grid="64x64"):
+    """Rows (k, warm, pressure error, rms divergence left, the exact solve's, before) of the
+    last step of a run of ``steps`` steps, each from its saved state: the saved divergence is
+    the step's right-hand side; scipy solves the same discrete Poisson problem exactly."""
+    rows = []
+    for warm in (0.0, 1.0):
+        for k in iterations:
+            s = saved_run(tmp_path, f"k{k}w{warm}", "--grid", grid, "--steps", str(steps),
+                          "--format", "rgba32f", "--pressure-iterations", str(k),
+                          "--warm-start", str(warm))
+            scene = Wind(grid=grid)
+            air = reference_air(scene)
+            div, p = s["divergence"][..., 0], s["pressure"][..., 0]
+            u, v = s["u"][..., 0], s["v"][..., 0]
+            exact = ref.exact_pressure(air, div)
+            # the faces before this step's projection, then projected by the exact pressure
+            before = ref.project(air, u, v, -p)
+            left = ref.divergence(air, u, v)
+            left_exact = ref.divergence(air, *ref.project(air, *before, exact))
+            fluid = ~air.solid
+
+            def rms(a):
+                return float(np.sqrt(np.mean(a[fluid] ** 2)))
+            rows.append((k, warm, float(np.linalg.norm(p - exact) / np.linalg.norm(exact)),
+                         rms(left), rms(left_exact), rms(div)))
+    return rows
+
+
+def test_the_pressure_solve_converges_to_scipys_and_the_warm_start_helps(tmp_path):
+    """The docs' divergence table (docs/scenes/wind.md), from saved states: the pressure's error
+    against the exact solve falls with the iterations, and starting from last step's pressure
+    beats starting from zero at every count."""
+    pytest.importorskip("scipy")
+    rows = divergence_table(tmp_path)
+    print("\n| iterations | warm start | pressure error | rms divergence left | exact solve's "
+          "| before |")
+    for k, warm, error, left, exact, before in rows:
+        print(f"| {k} | {warm:g} | {error:.2e} | {left:.3g} | {exact:.3g} | {before:.3g} |")
+    cold = {k: e for k, w, e, *_ in rows if w == 0}
+    warm = {k: e for k, w, e, *_ in rows if w == 1}
+    ks = sorted(cold)
+    assert all(cold[a] > cold[b] for a, b in zip(ks, ks[1:]))
+    assert all(warm[k] < cold[k] for k in ks)
+    for k, w, error, left, exact, before in rows:
+        # the exact solve leaves only float32's rounding of the saved faces
+        assert exact <= 1e-5 * before < left < before
+
+
+def test_a_channel_settles_to_poiseuilles_parabola(gl):
+    """Air driven along a channel with no-slip floor and ceiling settles to u(y) = f y (H - y) /
+    (2 nu). Against the discrete steady state (the tridiagonal system of the same stencil, its
+    ghosts included) within the iterations' shortfall, and against the parabola within the
+    stencil's O(dy^2) error at the walls (the ghost -u puts zero on the face to second order)."""
+    f, nu, height, dt, steps = 8.0, 0.01, 0.1, 1 / 240, 300
+    scene = Wind(grid="8x16", box=(0.05, height), walls="open,open,noslip,noslip",
+                 obstacle="none", wind=(f, 0.0), gusts=(0.0, 1.0), viscosity=nu,
+                 viscosity_iterations=50, dt=dt, lifetime=(0.1, 0.2))
+    with Simulation(gl, scene.graph(), None, outputs=["u", "v"], fmt="rgba32f") as sim:
+        sim.run(steps)
+        u = sim.download("u")[..., 0]
+        v = sim.download("v")[..., 0]
+    n = 16
+    dy = height / n
+    y = (np.arange(n) + 0.5) * dy
+    parabola = f * y * (height - y) / (2 * nu)
+    # the discrete steady state: nu (u[j+1] - 2 u[j] + u[j-1]) / dy^2 = -f, ghosts -u
+    matrix = np.diag(np.full(n, -2.0)) + np.diag(np.ones(n - 1), 1) + np.diag(np.ones(n - 1), -1)
+    matrix[0, 0] = matrix[-1, -1] = -3.0
+    discrete = np.linalg.solve(nu / dy ** 2 * matrix, np.full(n, -f))
+    profile = u[:, 4]  # a face in the middle of the channel
+    print(f"centre {profile.max():.4f} m/s; discrete {discrete.max():.4f}; parabola "
+          f"{parabola.max():.4f}; max |u - discrete| / max {np.abs(profile - discrete).max() / discrete.max():.2e}; "
+          f"|u - parabola| / max {np.abs(profile - parabola).max() / parabola.max():.2e}")
+    assert np.abs(profile - discrete).max() <= 0.01 * discrete.max()
+    assert np.abs(profile - parabola).max() <= 2 / n ** 2 * parabola.max() + 0.01 * discrete.max()
+    assert np.abs(u - profile[:, None]).max() <= 1e-4 * profile.max()  # the same at every x
+    assert np.abs(v).max() <= 1e-4 * profile.max()
+
+
+BAD = [
+    (["--grid", "5000x64"], "--grid W must be in [2, 4096] cells, got 5000"),
+    (["--grid", "64by64"], "--grid must be WxH cells, e.g. 256x256, got '64by64'"),
+    (["--pressure-iterations", "0"], "--pressure-iterations must be in [1, 10000], got 0"),
+    (["--walls", "open,open,slip"], "--walls must be 4 values LEFT,RIGHT,BOTTOM,TOP, got 3"),
+    (["--walls", "open,open,slip,wood"], "--walls top: must be slip, noslip, open or a speed"),
+    (["--walls", "open,open,slip,9"], "--walls top: a moving wall's speed must be in [-4, 4]"),
+    (["--obstacle", "circle:0.3,0.5"], "--obstacle must be circle:X,Y,R or box:X,Y,HX,HY"),
+    (["--obstacle", "box:0.5,0.5,2,2"], "--obstacle fills the whole box: there is no air"),
+    (["--viscosity", "1000"], "--viscosity 1000 gives nu dt / dx^2 = 1.09e+06"),
+    (["--advection", "bfecc"], "--advection must be one of semi-lagrangian, maccormack"),
+]
+
+
+@pytest.mark.parametrize("options, said", BAD, ids=[" ".join(o) for o, _ in BAD])
+def test_bad_input_is_one_line_naming_the_option(tmp_path, capsys, monkeypatch, options, said):
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")  # refused before any context
+    out = tmp_path / "x.png"
+    assert main(["run", "wind", *options, "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1 and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_obstacle_mask_that_is_no_png_is_refused(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    mask = tmp_path / "mask.png"
+    mask.write_bytes(b"%PDF-1.4\n")
+    assert main(["run", "wind", "--obstacle", str(mask), "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert f"--obstacle (a mask): {str(mask)!r} is not a PNG image: it is a PDF" in err, err
+    assert err.count("\n") == 1

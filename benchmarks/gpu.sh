@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# One prepared run on a machine with an NVIDIA GPU (issue 47): sets up headless EGL, prints
+# `es2particles info`, runs the GL tier's core tests and the figures (benchmarks/gpu_figures.py),
+# writing RESULTS.md and results.json as it goes, within 8 minutes in all.
+#
+#   bash benchmarks/gpu.sh                  on the GPU machine (bare, no network)
+#   bash benchmarks/gpu.sh --dry-run        here, on llvmpipe, at small sizes (CI runs this)
+#   bash benchmarks/gpu.sh --out DIR        where RESULTS.md and results.json go
+#                                           (default benchmarks/)
+#   bash benchmarks/gpu.sh --fetch-wheels   here, with network: moderngl and glcontext wheels
+#                                           for the GPU machine's Python into .whl/ (ignored)
+#
+# The GPU machine has Python with numpy, pillow, pytest and scipy but not moderngl: carry .whl/
+# (the device tool's carry list). Nothing else is installed there; the package runs from this
+# checkout (PYTHONPATH), so no pip install of it is needed.
+set -u
+cd "$(dirname "$0")/.."
+ROOT=$(pwd)
+OUT="$ROOT/benchmarks"
+DRY=""
+FETCH=""
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --dry-run) DRY="--dry-run" ;;
+    --fetch-wheels) FETCH=1 ;;
+    --out) shift; OUT="${1:?--out needs a folder}" ;;
+    *) echo "gpu.sh: unknown option $1 (--dry-run, --out DIR, --fetch-wheels)" >&2; exit 2 ;;
+  esac
+  shift
+done
+
+if [ -n "$FETCH" ]; then
+  mkdir -p .whl
+  for pkg in moderngl glcontext; do
+    python3 -m pip download -q --no-deps --only-binary=:all: --python-version 3.12 \
+      --implementation cp --platform manylinux_2_17_x86_64 --platform manylinux2014_x86_64 \
+      -d .whl "$pkg" || exit 1
+  done
+  ls .whl
+  exit 0
+fi
+
+PY=python3
+[ -x .venv/bin/python ] && [ -n "$DRY" ] && PY=.venv/bin/python
+if ! $PY -c "import moderngl" 2>/dev/null; then
+  if [ -d .whl ]; then
+    $PY -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade \
+      --target /tmp/site .whl/*.whl || exit 1
+    export PYTHONPATH=/tmp/site${PYTHONPATH:+:$PYTHONPATH}
+  else
+    echo "gpu.sh: moderngl is missing and there is no .whl/ to install it from" \
+         "(bash benchmarks/gpu.sh --fetch-wheels, then carry .whl)" >&2
+    exit 1
+  fi
+fi
+export PYTHONPATH="$ROOT${PYTHONPATH:+:$PYTHONPATH}"
+
+# Headless EGL on NVIDIA's driver: GLVND needs the driver's vendor file; a bare machine may have
+# the library without it.
+if [ -z "$DRY" ] && [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ]; then
+  for vendor in /usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json \
+                /usr/share/glvnd/egl_vendor.d/10_nvidia.json; do
+    [ -f "$vendor" ] && export __EGL_VENDOR_LIBRARY_FILENAMES="$vendor" && break
+  done
+  if [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ]; then
+    printf '{"file_format_version": "1.0.0", "ICD": {"library_path": "libEGL_nvidia.so.0"}}\n' \
+      > /tmp/10_nvidia.json
+    export __EGL_VENDOR_LIBRARY_FILENAMES=/tmp/10_nvidia.json
+  fi
+fi
+
+mkdir -p "$OUT"
+LOG="$OUT/gpu-run.log"
+: > "$LOG"
+start=$(date +%s)
+say() { echo "$*" | tee -a "$LOG"; }
+say "gpu.sh ${DRY:-(GPU run)} at $(date -u '+%Y-%m-%d %H:%M UTC'), commit $(git rev-parse --short HEAD 2>/dev/null)"
+command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,memory.total \
+  --format=csv,noheader 2>&1 | tee -a "$LOG"
+
+say "== es2particles info (gl)"
+timeout 60 $PY -m es2particles info 2>&1 | tee -a "$LOG"
+say "== es2particles info (gles): no GLES backend yet (issue 43)"
+
+say "== the GL tier's core tests"
+TESTS="tests/test_packing.py tests/test_simulation.py tests/test_grids.py tests/test_wind.py"
+TESTS="$TESTS tests/test_dejong.py tests/test_executor.py"
+timeout $([ -n "$DRY" ] && echo 240 || echo 150) $PY -m pytest -q -p no:cacheprovider \
+  -o addopts="" -m "gl and not slow" $TESTS 2>&1 | tail -25 | tee -a "$LOG"
+
+say "== figures"
+left=$(( $([ -n "$DRY" ] && echo 560 || echo 470) - ($(date +%s) - start) ))
+timeout "$left" $PY benchmarks/gpu_figures.py --out "$OUT" $DRY 2>&1 | tee -a "$LOG"
+code=${PIPESTATUS[0]}
+say "gpu.sh: done in $(( $(date +%s) - start )) s (figures exit $code); $OUT/RESULTS.md"
+exit "$code"

@@ -1,0 +1,200 @@
+"""The figures of a GPU run (issue 47), each written to RESULTS.md and results.json as soon as it
+is measured, so a run cut short still leaves what it measured.
+
+Run by ``benchmarks/gpu.sh`` (which sets up the machine first); alone: ``python
+benchmarks/gpu_figures.py --out DIR [--dry-run] [--budget SECONDS]``. ``--dry-run`` measures
+the same figures at sizes a CPU rasteriser finishes in minutes, and marks every figure so.
+
+Each time is the median of a few frames or steps after a warm-up, with ``ctx.finish()`` inside
+the timing: de Jong's frames a second at 2^20 and 2^24 particles, every scene's frame at its
+defaults and at 2^20, the wind field's steps a second at 256^2 and 512^2 cells with 2^20
+particles, sprites a second (the fountain at 2^20), the sort (the smoke's frame with and
+without it), and the bytes a de Jong step reads and writes a second against the card's
+memory bandwidth (a device-to-device copy through PyTorch where it is installed). A figure
+that would outrun ``--budget`` seconds (predicted from the one before it) is left out, and
+said so.
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from es2particles import open_context  # noqa: E402
+from es2particles.frame.pipeline import Pipeline  # noqa: E402
+from es2particles.scenes import BUILT_IN, scene_class  # noqa: E402
+
+GOALS = {"dejong 2^20 frames/s": 1000, "dejong 2^24 frames/s": 60,
+         "wind 256^2 2^20 steps/s": 240, "liquid 2^16 frames/s": 60}
+
+
+class Results:
+    """RESULTS.md and results.json in ``folder``, rewritten after every figure."""
+
+    def __init__(self, folder, dry_run, header):
+        self.folder, self.dry_run = Path(folder), dry_run
+        self.folder.mkdir(parents=True, exist_ok=True)
+        self.header, self.figures, self.notes = header, [], []
+        self.write()
+
+    def add(self, name, value, unit, how=""):
+        goal = None if self.dry_run else GOALS.get(f"{name} {unit}")
+        met = None if goal is None or value is None else value >= goal
+        self.figures.append({"name": name, "value": value, "unit": unit, "how": how,
+                             "goal": goal, "met": met})
+        shown = "-" if value is None else f"{value:.4g}"
+        print(f"{name}: {shown} {unit}" + (f" (goal {goal}: {'met' if met else 'not met'})"
+                                           if goal is not None and value is not None else "")
+              + (f" [{how}]" if how else ""), flush=True)
+        self.write()
+
+    def note(self, line):
+        print(line, flush=True)
+        self.notes.append(line)
+        self.write()
+
+    def write(self):
+        mark = " (DRY RUN: llvmpipe-sized figures, not a GPU's)" if self.dry_run else ""
+        lines = [f"# GPU results{mark}", ""] + [f"- {k}: {v}" for k, v in self.header.items()]
+        lines += ["", "| figure | value | unit | goal | how |", "|---|---|---|---|---|"]
+        for f in self.figures:
+            goal = "" if f["goal"] is None else (f"{f['goal']} ({'met' if f['met'] else 'not met'})"
+                                                 if f["met"] is not None else str(f["goal"]))
+            value = "-" if f["value"] is None else f"{f['value']:.4g}"
+            lines.append(f"| {f['name']} | {value} | {f['unit']} | {goal} | {f['how']} |")
+        if self.notes:
+            lines += ["", "Notes:", ""] + [f"- {n}" for n in self.notes]
+        (self.folder / "RESULTS.md").write_text("\n".join(lines) + "\n")
+        (self.folder / "results.json").write_text(json.dumps(
+            {"dry_run": self.dry_run, "header": self.header, "figures": self.figures,
+             "notes": self.notes}, indent=1) + "\n")
+
+
+def log2(count):
+    return f"2^{count.bit_length() - 1}"
+
+
+def median_seconds(function, repeats, finish):
+    function()
+    finish()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        finish()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def frame_seconds(ctx, scene, particles, size, repeats, steps=1):
+    """Seconds of one frame: ``steps`` steps and a render, finished."""
+    with Pipeline(ctx, scene, particles=particles, size=size, steps=0) as pipeline:
+        pipeline.begin(1)
+
+        def frame():
+            pipeline.step(steps)
+            pipeline.render()
+        return median_seconds(frame, repeats, ctx.finish)
+
+
+def step_seconds(ctx, scene, particles, size, repeats):
+    with Pipeline(ctx, scene, particles=particles, size=size, steps=0) as pipeline:
+        pipeline.begin(1)
+        return median_seconds(lambda: pipeline.step(1), repeats, ctx.finish)
+
+
+def bandwidth():
+    """The card's device-to-device copy rate, bytes a second (read + written), by PyTorch where
+    it is installed and sees a GPU; None otherwise."""
+    try:
+        import torch
+    except ImportError:
+        return None
+    if not torch.cuda.is_available():
+        return None
+    x = torch.empty(2 ** 30, dtype=torch.uint8, device="cuda")
+    y = torch.empty_like(x)
+    y.copy_(x)
+    torch.cuda.synchronize()
+    start = time.perf_counter()
+    for _ in range(10):
+        y.copy_(x)
+    torch.cuda.synchronize()
+    return 2 * 10 * x.numel() / (time.perf_counter() - start)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=str(ROOT / "benchmarks"))
+    parser.add_argument("--dry-run", action="store_true")
+    parser.add_argument("--budget", type=float, default=60.0)
+    args = parser.parse_args(argv)
+    dry = args.dry_run
+    big, huge = (2 ** 14, 2 ** 16) if dry else (2 ** 20, 2 ** 24)
+    size = (256, 256) if dry else (1024, 1024)
+    repeats = 3 if dry else 7
+    with open_context() as ctx:
+        caps = ctx.caps
+        commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                                capture_output=True, text=True).stdout.strip() or "unknown"
+        header = {"renderer": caps.renderer, "GL version": getattr(caps, "version", ""),
+                  "CPU cores": os.cpu_count(), "commit": commit,
+                  "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                  "sizes": f"{size[0]}x{size[1]} frames; particles {big} and {huge}"}
+        results = Results(args.out, dry, header)
+        from es2particles.scenes.dejong import DeJong
+
+        for count in (big, huge):
+            seconds = frame_seconds(ctx, DeJong(), count, size, repeats)
+            results.add(f"dejong {log2(count)}", 1 / seconds, "frames/s",
+                        f"{count} particles, a step and a frame (density, tone map, bloom)")
+        for name in BUILT_IN:
+            cls = scene_class(name)
+            scene = cls()
+            defaults = min(scene.defaults.particles, huge if not dry else big)
+            for count, label in ((defaults, "defaults"), (big, log2(big))):
+                start = time.perf_counter()
+                seconds = frame_seconds(ctx, cls(), count, size, repeats)
+                results.add(f"{name} frame at {label}", seconds * 1e3, "ms a frame",
+                            f"{count} particles, a step and a frame")
+                if time.perf_counter() - start > args.budget:
+                    results.note(f"{name}: the next size would outrun the budget; left out")
+                    break
+        from es2particles.scenes.wind import Wind
+
+        for cells in ((64, 128) if dry else (256, 512)):
+            seconds = step_seconds(ctx, Wind(grid=f"{cells}x{cells}"), big, size, repeats)
+            results.add(f"wind {cells}^2 {log2(big)}", 1 / seconds, "steps/s",
+                        f"{cells}^2 cells, 40 pressure iterations, {big} particles")
+        results.add(f"liquid {log2(2 ** 16)}", None, "frames/s", "not built yet (issue 41)")
+        from es2particles.scenes.fountain import Fountain
+
+        seconds = frame_seconds(ctx, Fountain(), big, size, repeats, steps=0)
+        results.add("fountain sprites", big / seconds, "sprites/s", f"{big} sprites a frame")
+        from es2particles.scenes.smoke import Smoke
+
+        with_sort = frame_seconds(ctx, Smoke(), big // 4, size, repeats)
+        results.add("smoke with its sort", with_sort * 1e3, "ms a frame",
+                    f"{big // 4} particles, a step and a sorted frame")
+        step = step_seconds(ctx, DeJong(), huge, size, repeats)
+        moved = huge * 4 * 2  # a position texel of 4 bytes (RGBA8), read and written
+        rate = moved / step
+        results.add("dejong step bytes", rate / 1e9, "GB/s", f"{huge} particles' state read "
+                    "and written a step")
+        copy = None if dry else bandwidth()
+        if copy:
+            results.add("device copy", copy / 1e9, "GB/s", "PyTorch device-to-device copy")
+            results.note(f"the de Jong step moves its state at {rate / copy:.1%} of the copy rate")
+        else:
+            results.note("no device copy rate (no PyTorch with a GPU here)")
+
+
+if __name__ == "__main__":
+    main()

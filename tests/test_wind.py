@@ -9,6 +9,7 @@ import pytest
 
 import wind_reference as ref
 from es2particles import Simulation
+from es2particles.frame.pipeline import Pipeline
 from es2particles.cli import main
 from es2particles.scenes.wind import Wind
 
@@ -247,3 +248,28 @@ def test_an_obstacle_mask_that_is_no_png_is_refused(tmp_path, capsys, monkeypatc
     err = capsys.readouterr().err
     assert f"--obstacle (a mask): {str(mask)!r} is not a PNG image: it is a PDF" in err, err
     assert err.count("\n") == 1
+
+
+def test_a_drag_in_the_live_view_pushes_the_air(gl):
+    """The window's and the widget's drag on a 2D scene with a Push: the air under the pointer
+    takes its velocity (here 1.5 m/s to the right, against a still start), and nowhere far from
+    it; after the button comes up the push stops."""
+    from es2particles.live.view import LiveView
+
+    times = iter(np.arange(0, 100, 0.05))
+    scene = Wind(grid="64x64", obstacle="none", wind=(0.0, 0.0), walls="slip,slip,slip,slip")
+    with Pipeline(gl, scene, particles=1024, size=(128, 128), steps=0) as pipeline:
+        view = LiveView(pipeline, clock=lambda: float(next(times)))
+        view.start()
+        view.press(64, 64, (128, 128))  # the box's centre, (0.5, 0.5)
+        view.move(74, 64, (128, 128))  # 10 pixels = 0.078 m in 0.05 s: 1.56 m/s to the right
+        view.run_steps(1)
+        wind = pipeline.sim.download("wind")
+        view.release()
+        view.run_steps(1)
+        after = pipeline.sim.download("wind")
+    near = wind[32, 36, 0]  # the cell under the pointer's new place, (0.57, 0.51)
+    far = np.abs(wind[:, :8]).max()  # the left eighth of the box, 0.5 m away
+    print(f"under the pointer {near:.3f} m/s, far {far:.2e} m/s")
+    assert 1.0 < near <= 1.6 and far < 0.05
+    assert np.abs(after).max() < np.abs(wind).max()  # no push once released: it spreads out

@@ -7,7 +7,8 @@ drawing: a frame runs the steps its wall time is worth (at most ``max_steps``: b
 scene runs slower than real time, and :attr:`LiveView.slowdown` says by how much); a scene
 without a time step (the attractors) steps once a frame. Keys go through
 :class:`~es2particles.live.controls.Bindings` to actions; a drag orbits the camera, or moves the
-scene's grip (the smoke's sphere) where it starts on it; the wheel zooms; the scene's sliders (the
+scene's grip (the smoke's sphere) where it starts on it, or, in a 2D scene with a
+:class:`~es2particles.scenes.base.Push` (the wind), pushes the scene where it passes; the wheel zooms; the scene's sliders (the
 attractors' coefficients) are chosen and moved by keys. Frames are drawn through the pipeline's
 one plan, with the person's camera and the grip's pose.
 """
@@ -35,6 +36,7 @@ class LiveView:
         start = pipeline.camera(0, 1)
         self.view = None if start is None else ViewCamera(start)
         self.grip = self.scene.grip()
+        self.push = self.scene.push() if self.view is None else None
         self.centre = None if self.grip is None else np.array(self.grip.centre, float)
         self._sim_centre = None if self.centre is None else self.centre.copy()
         self.controls = self.scene.controls()
@@ -183,6 +185,9 @@ class LiveView:
         """The pointer went down at pixel (x, y) of the picture of ``size``: on the grip, it
         takes it; elsewhere a drag orbits the camera."""
         if self.view is None:
+            if self.push is not None:
+                self._drag = ("push", self._world(x, y, size), self.clock())
+                self._push(self._drag[1], (0.0, 0.0))
             return
         self._drag = ("orbit", (x, y))
         if self.grip is not None:
@@ -195,7 +200,13 @@ class LiveView:
         """The pointer moved to (x, y) with the button down (nothing when it is up)."""
         if self._drag is None:
             return
-        if self._drag[0] == "orbit":
+        if self._drag[0] == "push":
+            _, before, then = self._drag
+            now, here = self.clock(), self._world(x, y, size)
+            velocity = (here - before) / max(now - then, 1e-3)
+            self._drag = ("push", here, now)
+            self._push(here, velocity)
+        elif self._drag[0] == "orbit":
             x0, y0 = self._drag[1]
             self.view.orbit(x - x0, y - y0)
             self._drag = ("orbit", (x, y))
@@ -206,7 +217,21 @@ class LiveView:
 
     def release(self):
         """The pointer's button went up."""
+        if self._drag is not None and self._drag[0] == "push":
+            self.pipeline.sim.set_uniforms({self.push.at: (0.0, 0.0, 1.0, 0.0),
+                                            self.push.velocity: (0.0, 0.0)})
         self._drag = None
+
+    def _world(self, x, y, size):
+        """The world point of a 2D scene under pixel (x, y) (rows from the top) of ``size``."""
+        x0, y0, x1, y1 = self.scene.view
+        w, h = size
+        return np.array([x0 + (x + 0.5) / w * (x1 - x0), y1 - (y + 0.5) / h * (y1 - y0)])
+
+    def _push(self, at, velocity):
+        p = self.push
+        self.pipeline.sim.set_uniforms({p.at: (*map(float, at), float(p.radius), 1.0),
+                                        p.velocity: tuple(map(float, velocity))})
 
     def wheel(self, notches):
         """The wheel turned ``notches`` (positive: towards the scene)."""

@@ -60,6 +60,18 @@ class Grip:
 
 
 @dataclass(frozen=True)
+class Push:
+    """What a hand's drag does to a 2D scene (a live view, the widget): it pushes the scene
+    where it passes. While the button is down the drag sets uniform ``at`` to (x, y, radius,
+    1) in world units and ``velocity`` to the pointer's world velocity (both declared by the
+    scene's passes); when it comes up, ``at``'s last number goes back to 0 (no push)."""
+
+    at: str
+    velocity: str
+    radius: float
+
+
+@dataclass(frozen=True)
 class Fill:
     """A start drawn uniformly from the box [lo, hi] (one bound per component, or one for all)."""
 
@@ -176,6 +188,10 @@ class Scene:
 
     def grip(self):
         """The :class:`Grip` a hand may drag, or None (the default: nothing to drag)."""
+        return None
+
+    def push(self):
+        """The :class:`Push` a hand's drag gives a 2D scene, or None (the default)."""
         return None
 
     def controls(self):

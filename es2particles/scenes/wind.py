@@ -25,7 +25,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..twins.life import life_range, longest_life
-from .base import Scene
+from .base import Push, Scene
 
 WALL_KINDS = {"slip": 0.0, "noslip": 1.0, "open": 2.0}  # a number: a moving no-slip wall (3)
 SIDES = ("left", "right", "bottom", "top")
@@ -333,6 +333,11 @@ class Wind(Scene):
               reads_new=["velocity"], textures=["solid"], uniforms=moving,
               defines={"WRITE_LIFE": None})
         return g
+
+    def push(self):
+        """A drag pulls the air within a tenth of the box's height toward the pointer's
+        velocity (the force passes' u_drag_at and u_drag_velocity)."""
+        return Push("u_drag_at", "u_drag_velocity", 0.1 * self.params.extent[1])
 
     def blocked_faces(self):
         """Boolean (H, W + 1) and (H + 1, W): the x and y faces on a closed wall or beside an

@@ -73,9 +73,27 @@ def main(argv=None):
         print("es2particles: error: out of memory: lower --particles, --size or "
               "--field-resolution", file=sys.stderr)
         return 1
+    except Exception as error:
+        # An interrupt inside an import can come out wrapped: Python 3.11 makes one raised in a
+        # class's __set_name__ (a dataclass being defined) a RuntimeError caused by it.
+        if not _caused_by_interrupt(error):
+            raise
+        print("es2particles: interrupted", file=sys.stderr)
+        return 130
     finally:
         restore()
         shown()
+
+
+def _caused_by_interrupt(error):
+    """Whether a KeyboardInterrupt is in ``error``'s chain of causes and contexts."""
+    seen = set()
+    while error is not None and id(error) not in seen:
+        if isinstance(error, KeyboardInterrupt):
+            return True
+        seen.add(id(error))
+        error = error.__cause__ or error.__context__
+    return False
 
 
 def console_main():
@@ -91,13 +109,36 @@ def console_main():
     # them out of later collections and collects again once its modules are in, _report
     # collects from its start; info and plan are short.
     gc.disable()
-    status = main()
+    _terminate_as_interrupt()  # for the whole process: main's own comes and goes inside it
+    try:
+        _import_held()
+        status = main()
+    except BaseException as error:  # an interrupt outside main's own handling: held back
+        if not _caused_by_interrupt(error):  # through the imports, or between two lines
+            raise
+        print("es2particles: interrupted", file=sys.stderr)
+        status = 130
     try:
         sys.stdout.flush()
         sys.stderr.flush()
     except (OSError, ValueError):  # a closed pipe (`| head`) or stream: nothing left to say
         pass
     os._exit(status)
+
+
+def _import_held():
+    """The libraries a command loads, imported with SIGINT and SIGTERM held back (delivered
+    right after, as a KeyboardInterrupt in main): a SIGTERM inside numpy's import left it half
+    made, and the next import said "PyCapsule_Import could not import module" (exit 1) where one
+    line and exit 130 were due. Commands that print help only need none of them."""
+    if len(sys.argv) < 2 or sys.argv[1] not in ("run", "plan", "export", "view", "info",
+                                                 "report"):
+        return
+    from .gl.device import signals_held
+
+    with signals_held():
+        import numpy  # noqa: F401
+        import moderngl  # noqa: F401
 
 
 MAX_IMAGE_FRAMES = 900  # WebP/GIF/APNG: each spilled frame is an open file while pillow encodes

@@ -377,3 +377,58 @@ def test_an_image_that_is_no_png_is_refused_unopened_whatever_its_name(tmp_path,
         assert f"{str(image)!r} is not a PNG image: it is {kind}" in err, (kind, err)
         assert option in err, err
     assert opened == [] and not marker.exists() and not out.exists()
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
+    """Issue 44, item 3: SIGTERM (and SIGINT) while the wind's shaders compiled ended 1 run in
+    60 in a segmentation fault inside moderngl's program() (the signal interrupted a system call
+    llvmpipe's compiler does not retry), and one inside the imports in a RuntimeError traceback.
+    Sent every 10 ms through the first second of a run: exit 130 and one line, or the run done
+    (exit 0), never a crash, a traceback or a file left behind. A signal in the interpreter's
+    own first ~80 ms, before any of our code runs, ends it the interpreter's way (SIGTERM's
+    default action, exit -15; SIGINT's KeyboardInterrupt traceback, exit -2), with nothing
+    made."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "out"
+    out.mkdir()
+    command = [sys.executable, "-m", "es2particles", "run", "wind", "--grid", "64x64",
+               "--particles", "1024", "--size", "64x64", "--steps", "3",
+               "--out", str(out / "wind.png")]
+    seen = {}
+    for k, (delay, sent) in enumerate([(i * 0.01, signal.SIGTERM) for i in range(100)]
+                                      + [(i * 0.05, signal.SIGINT) for i in range(20)]):
+        started = time.monotonic()
+        run = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                               text=True)
+        time.sleep(delay)
+        run.send_signal(sent)
+        err = run.communicate(timeout=120)[1]
+        took = time.monotonic() - started
+        code = run.returncode
+        seen[code] = seen.get(code, 0) + 1
+        where = f"{sent.name} after {delay:.2f} s: exit {code}, {err[-500:]!r}"
+        assert code in (130, 0, -sent), where
+        if code == -sent:  # only before the package's own code runs: the interpreter's way
+            assert delay < 0.15 and list(out.iterdir()) == [], where
+            continue
+        left = sorted(p.name for p in out.iterdir())
+        if code == 130:
+            assert err == "es2particles: interrupted\n", where
+            # nothing, or (interrupted after its files landed, before it exited) the whole file
+            assert left in ([], ["wind.png"]), (where, left)
+        else:
+            assert code != 0 or left == ["wind.png"], (where, left)
+        if left:
+            from PIL import Image
+
+            with Image.open(out / "wind.png", formats=["PNG"]) as image:
+                image.load()  # complete: a half-written PNG fails here
+            (out / "wind.png").unlink()
+        assert "Traceback" not in err and took < 60, where
+    print(f"exits: {seen}")

@@ -184,6 +184,10 @@ def settings_from_mapping(mapping, where):
                 raise ParameterError(f"{where}: [settings] gradient must be text, got {value!r}")
             given["gradient"] = None if value == "none" else value
         elif name == "size":
+            if not (isinstance(value, str) or (isinstance(value, list) and len(value) == 2
+                                               and all(type(v) is int for v in value))):
+                raise ParameterError(f"{where}: [settings] size must be \"WxH\" or [w, h], "
+                                     f"got {value!r}")
             given["size"] = value if isinstance(value, str) else tuple(value)
         else:
             try:
@@ -215,11 +219,29 @@ def read_toml(path, option, what="TOML"):
 
 
 def _toml_loads(text):
+    """The tables of TOML ``text``; a document nested beyond any run's needs (the parser recurses
+    once a level: thousands of levels ended in a RecursionError) is a ValueError."""
     try:
         import tomllib
     except ImportError:  # Python before 3.11
         import tomli as tomllib
-    return tomllib.loads(text)
+    depth = deepest = 0
+    for char in text:  # brackets and braces, strings included: an upper bound of the nesting
+        if char in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif char in "]}":
+            depth = max(0, depth - 1)
+    if deepest > MAX_TOML_DEPTH:
+        raise ValueError(f"nested {deepest} levels deep; a run or key file needs at most "
+                         f"{MAX_TOML_DEPTH}")
+    try:
+        return tomllib.loads(text)
+    except RecursionError:
+        raise ValueError("nested too deep to read") from None
+
+
+MAX_TOML_DEPTH = 32  # brackets and braces open at once
 
 
 def toml_dumps(data):

@@ -432,3 +432,68 @@ def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
             (out / "wind.png").unlink()
         assert "Traceback" not in err and took < 60, where
     print(f"exits: {seen}")
+
+
+@pytest.mark.parametrize("text, said", [
+    ('scene = "dejong"\n[settings]\nsize = 32\n', '[settings] size must be "WxH" or [w, h], '
+                                                  'got 32'),
+    ('scene = "dejong"\n[settings]\nsize = true\n', '[settings] size must be "WxH" or [w, h], '
+                                                    'got True'),
+    ("a = " + "[" * 5000 + "]" * 5000 + "\n", "nested 5000 levels deep; a run or key file "
+                                              "needs at most 32"),
+    ("a = " + "{b = " * 3000 + "1" + "}" * 3000 + "\n", "nested 3000 levels deep"),
+], ids=["size-number", "size-bool", "nested-arrays", "nested-tables"])
+def test_a_run_file_s_odd_values_are_one_line(tmp_path, capsys, monkeypatch, text, said):
+    """Issue 44, item 4: these were tracebacks (a TypeError; a RecursionError in the parser)."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    run = tmp_path / "run.toml"
+    run.write_text(text)
+    assert main(["run", "--config", str(run), "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1 and "Traceback" not in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.toml"]
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("meta, said", [
+    ("[1, 2]", "its 'meta' must be a JSON object (what --save-state writes), got list"),
+    ("null", "its 'meta' must be a JSON object (what --save-state writes), got NoneType"),
+    ("5", "its 'meta' must be a JSON object (what --save-state writes), got int"),
+    ("[" * 3000 + "]" * 3000, "its 'meta' is not JSON (or nested too deep)"),
+    (None, "is a single .npy array, not a state file"),
+], ids=["list", "null", "number", "deep", "npy"])
+def test_a_state_file_s_odd_meta_is_one_line(tmp_path, capsys, meta, said):
+    """Issue 44, item 4: each was an AttributeError or RecursionError traceback."""
+    if meta is None:
+        state = tmp_path / "state.npy"
+        np.save(state, np.zeros(3))
+    else:
+        state = tmp_path / "state.npz"
+        np.savez(state, meta=np.array(meta))
+    assert main(["run", "dejong", *SMALL, "--load-state", str(state), "--out",
+                 str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1 and "Traceback" not in err, err
+    assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.gl
+def test_a_saved_step_count_beyond_any_run_is_refused(tmp_path, capsys):
+    state = tmp_path / "state.npz"
+    assert main(["run", "dejong", *SMALL, "--save-state", str(state), "--out",
+                 str(tmp_path / "x.png")]) == 0
+    with np.load(state) as data:
+        arrays = {k: data[k] for k in data.files}
+    import json
+
+    meta = json.loads(str(arrays["meta"]))
+    text = json.dumps(meta).replace(f'"steps_done": {meta["steps_done"]}',
+                                    '"steps_done": 1' + "0" * 400)
+    arrays["meta"] = np.array(text)
+    np.savez(state, **arrays)
+    capsys.readouterr()
+    assert main(["run", "dejong", *SMALL, "--load-state", str(state), "--out",
+                 str(tmp_path / "y.png")]) == 2
+    err = capsys.readouterr().err
+    assert "steps_done must be a whole number in [0, 2^53], got 1000000" in err, err
+    assert err.count("\n") == 1 and len(err) < 300

@@ -18,6 +18,8 @@ from .plan import PlanBuilder, Resource, plan_frame
 from .settings import DEFAULT, Defaults, FrameSettings, parse_size
 from .simulation import Simulation
 
+STEPS_LIMIT = 2 ** 53  # a saved step count beyond any run's (float64 counts it exactly)
+
 
 class SeededRandom:
     """numpy's random Generator for ``seed``, made when a scene first draws from it: a scene that
@@ -304,7 +306,14 @@ class Pipeline:
 
         where = f"--load-state {str(path)!r}"
         try:
-            with np.load(path, allow_pickle=False) as data:
+            data = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+            raise ParameterError(f"{where} is not a state file ({error})") from None
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            raise ParameterError(f"{where} is a single .npy array, not a state file (an .npz "
+                                 "archive that --save-state writes)")
+        try:
+            with data:
                 arrays = {k: data[k] for k in data.files}
         except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
             raise ParameterError(f"{where} is not a state file ({error})") from None
@@ -313,8 +322,12 @@ class Pipeline:
                                  "--save-state)")
         try:
             meta = json.loads(str(arrays["meta"]))
-        except ValueError:
-            raise ParameterError(f"{where}: its 'meta' is not JSON") from None
+        except (ValueError, RecursionError):
+            raise ParameterError(f"{where}: its 'meta' is not JSON (or nested too deep)") \
+                from None
+        if not isinstance(meta, dict):
+            raise ParameterError(f"{where}: its 'meta' must be a JSON object (what --save-state "
+                                 f"writes), got {type(meta).__name__}")
         want = {"scene": self.scene.name, "particles": self.sim.count, "format": self.sim.fmt}
         differ = [f"{k} {meta.get(k)!r} (this run: {v!r})" for k, v in want.items()
                   if meta.get(k) != v]
@@ -329,8 +342,10 @@ class Pipeline:
                                      f"({buffer.parts} part(s) of {shape} {buffer.fmt})")
             buffer.write_texels(np.stack(parts, axis=1))
         steps = meta.get("steps_done")
-        if not isinstance(steps, int) or steps < 0:
-            raise ParameterError(f"{where}: steps_done must be a whole number, got {steps!r}")
+        if not isinstance(steps, int) or not 0 <= steps <= STEPS_LIMIT:
+            shown = repr(steps) if len(repr(steps)) <= 40 else repr(steps)[:37] + "..."
+            raise ParameterError(f"{where}: steps_done must be a whole number in [0, 2^53], "
+                                 f"got {shown}")
         self.sim.steps_done = steps
 
     def describe(self):

@@ -574,6 +574,9 @@ def _run(args):
     start = time.perf_counter()
     run = run_of(args)
     frames = run.frames
+    if frames == 1 and run.options.get("animate_to") is not None:
+        raise ParameterError("--animate-to animates over an animation's frames: give --frames "
+                             "F (2 or more) with it; a still has none")
     out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
     if frames > MAX_IMAGE_FRAMES and out.suffix.lower() != ".mp4":
         raise ParameterError(f"frames must be at most {MAX_IMAGE_FRAMES} for {out.suffix} "

@@ -497,3 +497,15 @@ def test_a_saved_step_count_beyond_any_run_is_refused(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "steps_done must be a whole number in [0, 2^53], got 1000000" in err, err
     assert err.count("\n") == 1 and len(err) < 300
+
+
+def test_animate_to_without_frames_is_refused(tmp_path, capsys, monkeypatch):
+    """Issue 44, item 5: accepted and ignored on the command line and in a run file."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    run = tmp_path / "run.toml"
+    run.write_text('scene = "dejong"\n[parameters]\nanimate_to = [1.0, 2.0, 3.0, 4.0]\n')
+    for args in (["dejong", "--animate-to", "1,2,3,4"], ["--config", str(run)]):
+        assert main(["run", *args, "--out", str(tmp_path / "x.png")]) == 2
+        err = capsys.readouterr().err
+        assert "--animate-to animates over an animation's frames: give --frames F" in err, err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.toml"]

@@ -53,7 +53,7 @@ def main(argv=None):
         args = build_parser(argv).parse_args(argv)
         return args.handler(args) or 0
     except Es2ParticlesError as error:
-        print(f"es2particles: error: {error}", file=sys.stderr)
+        print(f"es2particles: error: {_capped(str(error))}", file=sys.stderr)
         return 2
     except OSError as error:
         if isinstance(error, BrokenPipeError):  # `| head` closed the pipe: nothing to say
@@ -61,7 +61,7 @@ def main(argv=None):
             return 0
         # a full disk, a read-only place, a name too long: after the work, said in one line
         where = f" {error.filename!r}" if error.filename else ""
-        print(f"es2particles: error: cannot write{where}: {error.strerror or error}",
+        print(_capped(f"es2particles: error: cannot write{where}: {error.strerror or error}"),
               file=sys.stderr)
         return 1
     except KeyboardInterrupt:
@@ -83,6 +83,15 @@ def main(argv=None):
     finally:
         restore()
         shown()
+
+
+def _capped(message, longest=160):
+    """``message`` with each run of more than ``longest`` characters without a space (a value
+    echoed back: a 100,000-character --shape was printed whole) cut to its start and its
+    length."""
+    return re.sub(rf"\S{{{longest + 1},}}",
+                  lambda m: f"{m.group(0)[:longest // 2]}... ({len(m.group(0))} characters)",
+                  message)
 
 
 def _caused_by_interrupt(error):

@@ -509,3 +509,20 @@ def test_animate_to_without_frames_is_refused(tmp_path, capsys, monkeypatch):
         err = capsys.readouterr().err
         assert "--animate-to animates over an animation's frames: give --frames F" in err, err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run.toml"]
+
+
+@pytest.mark.parametrize("args, said", [
+    (["dejong", "--gradient", "q" * 100000], "gradient 'qqqq"),
+    (["collision", "--shape", "x" * 100000], "shape must be circle"),
+    (["dejong", "--out", "/tmp/\udcff\udcfe.png"], "--out: the path must be UTF-8 text"),
+], ids=["long-gradient", "long-shape", "out-not-utf8"])
+def test_long_or_odd_values_are_one_short_line(tmp_path, capsys, monkeypatch, args, said):
+    """Issue 44, items 4 and 6: a 100,000-character value was echoed whole (or, for a name too
+    long to look up, said as "cannot write"); a name that is not UTF-8 was a UnicodeEncodeError
+    traceback."""
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    out = [] if "--out" in args else ["--out", str(tmp_path / "x.png")]
+    assert main(["run", *args, *out]) == 2
+    err = capsys.readouterr().err
+    assert said in err and err.count("\n") == 1 and len(err) < 600, err[:600]
+    assert "cannot write" not in err and list(tmp_path.iterdir()) == []

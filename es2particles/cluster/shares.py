@@ -34,7 +34,7 @@ def share_sizes(run, save_state=False):
     particles = run.settings.particles
     if run.frames != 1 or particles is DEFAULT:
         return None
-    particles = int(check_range("particles", particles, 1, MAX_PARTICLES, integer=True))
+    particles = int(check_range("--particles", particles, 1, MAX_PARTICLES, integer=True))
     if particles <= SHARE:
         return None
     rendering = run.make_scene().rendering()

@@ -96,8 +96,8 @@ def parse_size(text, max_size):
         w, h = text
     except (TypeError, ValueError):
         raise ParameterError(f"size must be WxH or a (w, h) pair, got {text!r}") from None
-    return (int(check_range("size width", w, 1, max_size, integer=True)),
-            int(check_range("size height", h, 1, max_size, integer=True)))
+    return (int(check_range("--size width", w, 1, max_size, integer=True)),
+            int(check_range("--size height", h, 1, max_size, integer=True)))
 
 
 def resolve_format(caps, fmt):

@@ -196,7 +196,7 @@ class Layout:
     def for_count(cls, count, max_texture_size):
         """The near-square layout for ``count`` particles; checks it fits the context."""
         limit = max_texture_size ** 2
-        count = int(check_range("particles", count, 1, limit, integer=True))
+        count = int(check_range("--particles", count, 1, limit, integer=True))
         width = math.isqrt(count - 1) + 1  # ceil(sqrt(count))
         height = -(-count // width)
         return cls(count, width, height)

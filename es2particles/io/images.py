@@ -51,12 +51,15 @@ def file_fault(path):
     file", "is not a plain file" for a FIFO, a socket or a device), or None for a plain file.
     Only its status is looked at: nothing is opened, so a FIFO is not waited on."""
     file = Path(path)
-    if file.is_file():
-        return None
-    if file.is_dir():
-        return "is a folder, not a file"
-    if file.exists():
-        return "is not a plain file (a FIFO, a socket or a device)"
+    try:
+        if file.is_file():
+            return None
+        if file.is_dir():
+            return "is a folder, not a file"
+        if file.exists():
+            return "is not a plain file (a FIFO, a socket or a device)"
+    except OSError as error:  # a name too long, a loop of links: the path itself is at fault
+        return f"cannot be looked up: {error.strerror or error}"
     return "does not exist"
 
 

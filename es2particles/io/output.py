@@ -52,6 +52,12 @@ def check_output(path, parameter, suffixes):
     and nothing on the way may be a file."""
     if path is None:
         raise ParameterError(f"{parameter} is required")
+    try:
+        str(path).encode("utf-8")
+    except UnicodeEncodeError:  # bytes no encoding names: printing it would fail after the work
+        shown = str(path).encode("utf-8", "backslashreplace").decode("ascii", "replace")
+        raise ParameterError(f"{parameter}: the path must be UTF-8 text; got {shown[:200]}") \
+            from None
     path = Path(path)
     if path.suffix.lower() not in suffixes:
         raise ParameterError(f"{parameter} must end in {', '.join(sorted(suffixes))}, got {str(path)!r}")

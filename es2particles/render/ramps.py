@@ -3,8 +3,6 @@
 A ramp is a (256, 4) uint8 array; ``post.py`` uploads it as a 256 x 1 texture.
 """
 
-from pathlib import Path
-
 import numpy as np
 
 from ..errors import ParameterError
@@ -28,6 +26,8 @@ def load_ramp(spec):
         return _interpolate([[int(c[k:k + 2], 16) for k in (1, 3, 5)] for c in BUILTIN[spec]])
     from PIL import ImageColor
 
+    from ..io.images import file_fault
+
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
         from ..io.images import read_image
 
@@ -44,7 +44,7 @@ def load_ramp(spec):
     known = ", ".join(sorted(BUILTIN))
     raise ParameterError(f"gradient {spec!r} is unknown: use one of {known}, a comma-separated "
                          "colour list (#000000,#ff8800,#ffffff) or a PNG path"
-                         + (" (file not found)" if not Path(spec).exists() else ""))
+                         + (" (file not found)" if file_fault(spec) == "does not exist" else ""))
 
 
 def _interpolate(colours):

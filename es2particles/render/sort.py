@@ -212,7 +212,8 @@ class Order:
     def __init__(self, count, fmt="rgba8", max_texture_size=None):
         if fmt not in FORMATS:
             raise ParameterError(f"fmt must be one of {list(FORMATS)}, got {fmt!r}")
-        self.count = int(check_range("count", count, 1, MAX_COUNT, integer=True))
+        self.count = int(check_range("--particles (the sort order's count)", count, 1, MAX_COUNT,
+                                     integer=True))
         self.fmt = fmt
         self.levels = levels(self.count)
         self.width, self.height = 2 ** ((self.levels + 1) // 2), 2 ** (self.levels // 2)

@@ -55,8 +55,8 @@ class CollisionParams(Params):
     bounce: float = param(0.6, 0.0, 2.0, help="the chapter's bouncing resistance r")
     lifetime: tuple = param((3.0, 5.0), 1e-6, None, count=2, unit="s", metavar="MIN,MAX",
                             help="lifetime range (at most 32512 steps of --dt)")
-    speed: tuple = param((2.6, 3.2), 0.0, 1e4, count=2, unit="units/s", metavar="MIN,MAX",
-                         help="emission speed range")
+    speed: tuple = param((2.6, 3.2), 0.0, 8.0, count=2, unit="units/s", metavar="MIN,MAX",
+                         help="emission speed range (at most the velocity range's 8 units/s)")
     emitter: tuple = param((-0.7, -0.95), -1.0, 1.0, count=2, help="the emitter's place")
     direction: float = param(68.0, -360.0, 360.0, unit="degrees",
                              help="the emission's direction, from +x towards +y")

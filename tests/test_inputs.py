@@ -526,3 +526,27 @@ def test_long_or_odd_values_are_one_short_line(tmp_path, capsys, monkeypatch, ar
     err = capsys.readouterr().err
     assert said in err and err.count("\n") == 1 and len(err) < 600, err[:600]
     assert "cannot write" not in err and list(tmp_path.iterdir()) == []
+
+
+def test_key_bindings_give_each_key_one_action_and_each_action_a_key():
+    """Issue 44, item 5: both were accepted, one action then silently keyless."""
+    from es2particles.errors import ParameterError
+    from es2particles.live.controls import Bindings
+
+    with pytest.raises(ParameterError, match="'q' is given to both quit and pause; a key does "
+                                             "one thing"):
+        Bindings({"quit": "q", "pause": "q"})
+    with pytest.raises(ParameterError, match=r"turn_left is left with no key \(its left went "
+                                             r"to pause\): give it another"):
+        Bindings({"pause": "left"})
+    assert Bindings({"pause": "escape"}).action("q") == "quit"  # quit keeps its other key
+
+
+def test_save_image_refuses_a_name_that_is_not_png(tmp_path):
+    """Issue 44, item 5: save_image(img, "x.jpg") wrote PNG bytes under a JPEG name."""
+    from es2particles import save_image
+    from es2particles.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="save_image writes PNG: name the file .png"):
+        save_image(np.zeros((4, 4, 3), np.uint8), tmp_path / "x.jpg")
+    assert list(tmp_path.iterdir()) == []

@@ -77,6 +77,8 @@ MESH_FAULTS = [
     ("point.obj", obj_text([(1, 2, 3)] * 3, [(1, 2, 3)]), "is flat to a point"),
     ("huge.obj", obj_text(TETRAHEDRON[:3] + [(0, 0, 1e300)], TETRAHEDRON_FACES),
      "has a coordinate of 1e+300; coordinates must lie within +-1e+10"),
+    ("zero.obj", obj_text(TETRAHEDRON, [(0, 1, 2)] + TETRAHEDRON_FACES[1:]),
+     "line 5: a face names vertex 0; OBJ counts vertices from 1"),
     ("noise.stl", noise(), "could not be read as a mesh"),
     ("noise.obj", noise(seed=29), "could not be read as a mesh"),
 ]

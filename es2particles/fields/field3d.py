@@ -298,7 +298,10 @@ def _read_mesh_scene(handle, kind, file, named):
     opened."""
     import trimesh
 
-    stream = io.BytesIO(handle.read())
+    data = handle.read()
+    if kind == "obj":
+        _check_obj_indices(data, named)
+    stream = io.BytesIO(data)
     stream.name = file.name  # trimesh names the part after it (an open fd's name is a number)
     try:
         return trimesh.load_scene(stream, file_type=kind, process=False, skip_materials=True)
@@ -320,6 +323,18 @@ def _read_mesh_scene(handle, kind, file, named):
                              f"range ({error})") from None
     except Exception as error:  # trimesh raises many kinds for unreadable files
         raise ParameterError(f"{named} could not be read as a mesh: {error}") from None
+
+
+def _check_obj_indices(data, named):
+    """Refuse an OBJ face naming vertex 0: OBJ counts from 1 (and -1 from the end), and trimesh
+    reads 0 as -1, the last vertex, so such a file ran as another mesh."""
+    for number, line in enumerate(data.splitlines(), 1):
+        words = line.split()
+        if words[:1] != [b"f"]:
+            continue
+        if any(word.split(b"/")[0] in (b"0", b"+0", b"-0") for word in words[1:]):
+            raise ParameterError(f"{named} line {number}: a face names vertex 0; OBJ counts "
+                                 "vertices from 1")
 
 
 def _check_raw_mesh(part, named):

@@ -610,6 +610,9 @@ def save_image(pixels, path, compress_level=1):
     Deflate level 1 by default, in pieces on threads (:func:`deflate`): ~17 ms at 1024x1024 on
     two cores against ~120 ms for pillow's default level 6; pass 9 for the smallest file.
     """
+    if Path(path).suffix.lower() != ".png":  # PNG bytes under another name mislead
+        raise ParameterError(f"save_image writes PNG: name the file .png, got {str(path)!r} "
+                             "(save_animation writes .webp, .gif, .png and .mp4)")
     pixels = np.asarray(pixels)
     if pixels.ndim != 3 or pixels.shape[2] != 3 or 0 in pixels.shape:
         raise ParameterError(f"an image must be an (h, w, 3) array with h, w >= 1, got shape "

@@ -187,6 +187,7 @@ class Bindings:
 
     def __init__(self, changes=None, where="key bindings"):
         bound = {action: list(keys) for action, keys in DEFAULT_BINDINGS.items()}
+        given = {}  # key -> the action this file gives it
         for action, keys in (changes or {}).items():
             if action not in bound:
                 raise ParameterError(f"{where}: unknown action {action!r} (actions: "
@@ -202,9 +203,20 @@ class Bindings:
                                          f"a-z, 0-9, {', '.join(NAMED_KEYS)}, each also as "
                                          "shift+KEY)")
             keys = [k.lower() for k in keys]
+            for key in keys:
+                if given.setdefault(key, action) != action:
+                    raise ParameterError(f"{where}: {key!r} is given to both {given[key]} and "
+                                         f"{action}; a key does one thing")
             for other in bound.values():
                 other[:] = [k for k in other if k not in keys]
             bound[action] = keys
+        keyless = [action for action, keys in bound.items() if not keys]
+        if keyless:
+            taker = {a: next(b for b, ks in bound.items()
+                             if any(k in ks for k in DEFAULT_BINDINGS[a])) for a in keyless}
+            raise ParameterError(f"{where}: " + "; ".join(
+                f"{a} is left with no key (its {', '.join(DEFAULT_BINDINGS[a])} went to "
+                f"{taker[a]})" for a in keyless) + ": give it another")
         self.actions = {key: action for action, keys in bound.items() for key in keys}
         self.keys = bound
 

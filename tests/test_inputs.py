@@ -550,3 +550,27 @@ def test_save_image_refuses_a_name_that_is_not_png(tmp_path):
     with pytest.raises(ParameterError, match="save_image writes PNG: name the file .png"):
         save_image(np.zeros((4, 4, 3), np.uint8), tmp_path / "x.jpg")
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.gl
+def test_the_library_api_names_the_wrong_kind_and_a_released_pipeline(gl):
+    """Issue 44, item 4: a string as the context or the scene, an int as the settings, and a
+    pipeline used after release() were AttributeError and TypeError tracebacks;
+    Confetti(shapes="") was accepted where the command line refuses it."""
+    from es2particles import Es2ParticlesError, ParameterError, Pipeline
+    from es2particles.scenes import Confetti
+    from es2particles.scenes.dejong import DeJong
+
+    with pytest.raises(ParameterError, match="ctx must be a Context"):
+        Pipeline("a context", DeJong())
+    with pytest.raises(ParameterError, match="scene must be a Scene .* got str"):
+        Pipeline(gl, "dejong")
+    with pytest.raises(ParameterError, match="settings must be a FrameSettings, got int"):
+        Pipeline(gl, DeJong(), settings=5)
+    with pytest.raises(ParameterError, match="confetti shapes are one to three"):
+        Confetti(shapes="")
+    pipeline = Pipeline(gl, DeJong(), particles=256, size=(16, 16))
+    pipeline.release()
+    for use in (pipeline.step, pipeline.render, pipeline.image, pipeline.state):
+        with pytest.raises(Es2ParticlesError, match="this Pipeline was released; make a new one"):
+            use()

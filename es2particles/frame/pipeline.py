@@ -54,9 +54,25 @@ def settings_of(settings=None, **given):
         out[name] = DEFAULT if value is None and name in _NONE_IS_DEFAULT else value
     if settings is None:
         return FrameSettings(**out)
+    if not isinstance(settings, FrameSettings):
+        raise ParameterError(f"settings must be a FrameSettings, got {type(settings).__name__}")
     from dataclasses import replace
 
     return replace(settings, **out)
+
+
+def _check_kinds(ctx, scene):
+    """One line where the library is given the wrong kind of context or scene."""
+    from ..gl.context import Context
+    from ..scenes.base import Scene
+
+    if not isinstance(ctx, Context):
+        raise ParameterError(f"ctx must be a Context (es2particles.open_context()), got "
+                             f"{type(ctx).__name__}")
+    if not isinstance(scene, Scene):
+        raise ParameterError(f"scene must be a Scene (es2particles.scenes), got "
+                             f"{type(scene).__name__}: to run one by name, "
+                             "es2particles.scenes.scene_class(name)()")
 
 
 class Pipeline:
@@ -105,6 +121,7 @@ class Pipeline:
         if share is not None:
             given["share"] = share
         self.settings = settings_of(settings, **given)
+        _check_kinds(ctx, scene)
         self.ctx, self.scene = ctx, scene
         ctx.make_current()
         self.plan = plan_frame(scene, self.settings, ctx.caps)
@@ -164,9 +181,15 @@ class Pipeline:
             if frame in keep:
                 yield frame
 
+    def _use(self):
+        """Refuse in one line once released (its textures are gone)."""
+        if self.executor is None:
+            raise Es2ParticlesError("this Pipeline was released; make a new one")
+
     def begin(self, frames=1, warm_up=None):
         """Before the first of ``frames`` frames: set its uniforms and run the steps before it
         (``warm_up(pipeline)``, if given, runs them instead)."""
+        self._use()
         self.scene.before_frame(self.sim, 0, frames)
         if warm_up is None:
             self.warm_up()
@@ -174,6 +197,7 @@ class Pipeline:
             warm_up(self)
 
     def step(self, steps=1):
+        self._use()
         self.sim.run(steps)
 
     def warm_up(self):
@@ -189,6 +213,7 @@ class Pipeline:
         stage of the frame, the density accumulated over the run's samples; returns the final
         texture. ``camera`` and ``model`` (a live view's) replace the scene's camera of the frame
         and its motion's model matrix."""
+        self._use()
         env = self.executor.frame(camera or self.camera(frame, frames), model)
         self._read = None
         bare = self._draw_without_sprites(env) if self._unlit_check is not None else None
@@ -256,6 +281,7 @@ class Pipeline:
 
     def image(self):
         """The last rendered frame as an (h, w, 3) uint8 array, top row first."""
+        self._use()
         if self.final is None:
             self.render()
         if self._read is not None:
@@ -272,6 +298,7 @@ class Pipeline:
     def state(self):
         """Every simulated quantity, decoded to world units: name -> (N, components) float64;
         a grid quantity's (H, W, components), row 0 at the bottom, values at cell centres."""
+        self._use()
         return {name: self.sim.download(name) for name in self.sim.buffers}
 
     def save_state(self, path):
@@ -304,6 +331,7 @@ class Pipeline:
         import json
         import zipfile
 
+        self._use()
         where = f"--load-state {str(path)!r}"
         try:
             data = np.load(path, allow_pickle=False)

@@ -44,7 +44,7 @@ class ConfettiParams(Collision3DParams):
     def check(self):
         super().check()
         shapes = self.shape_list
-        if any(s not in SHAPES for s in shapes) or len(set(shapes)) != len(shapes):
+        if not shapes or any(s not in SHAPES for s in shapes) or len(set(shapes)) != len(shapes):
             raise ParameterError(f"--shapes: confetti shapes are one to three of "
                                  f"{', '.join(SHAPES)}, each once; got {self.shapes!r}")
 

@@ -574,3 +574,30 @@ def test_the_library_api_names_the_wrong_kind_and_a_released_pipeline(gl):
     for use in (pipeline.step, pipeline.render, pipeline.image, pipeline.state):
         with pytest.raises(Es2ParticlesError, match="this Pipeline was released; make a new one"):
             use()
+
+
+@pytest.mark.gl
+def test_a_zip_bomb_as_a_state_is_refused_before_inflating(tmp_path, capsys):
+    """Issue 44, item 6: a state file whose member inflates to gigabytes (megabytes on disk) was
+    refused only after minutes of inflating; the archive's directory says its size first (256
+    MiB here, to keep the test's own deflating short)."""
+    import io
+    import time
+    import zipfile
+
+    bomb = tmp_path / "bomb.npz"
+    with zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as archive:
+        with archive.open("position.npy", "w", force_zip64=True) as member:
+            header = io.BytesIO()
+            np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "shape": (2 ** 25,),
+                                                          "fortran_order": False})
+            member.write(header.getvalue())
+            for _ in range(16):
+                member.write(bytes(2 ** 24))
+    start = time.monotonic()
+    assert main(["run", "dejong", *SMALL, "--load-state", str(bomb), "--out",
+                 str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert "its member 'position.npy' inflates to 268435584 bytes; a state of this run holds " \
+           "at most" in err, err
+    assert time.monotonic() - start < 10 and not (tmp_path / "x.png").exists()

@@ -425,10 +425,14 @@ def animation(client, run, out, worker_timeout=WORKER_TIMEOUT):
                     "makes only the others")
 
         done = finished(client, futures, "frame tasks", kept, worker_timeout)
-        for future in progress(done, len(futures), "frame tasks", unit="task"):
-            for frame, data in future.result().items():
-                write_atomic(path[frame], lambda tmp, data=data: Path(tmp).write_bytes(data))
-            future.release()
+        try:
+            for future in progress(done, len(futures), "frame tasks", unit="task"):
+                for frame, data in future.result().items():
+                    write_atomic(path[frame], lambda tmp, data=data: Path(tmp).write_bytes(data))
+                future.release()
+        except KeyboardInterrupt:  # the frames made stay for the next run: say so, and where
+            print(f"es2particles: {kept()}", file=sys.stderr)
+            raise
     if out.suffix.lower() != ".mp4":
         print(f"es2particles: assembling {frames} frames into {out}", file=sys.stderr)
     with AnimationWriter(out, run.fps) as writer:

@@ -340,11 +340,23 @@ class Pipeline:
         if not isinstance(data, np.lib.npyio.NpzFile):
             raise ParameterError(f"{where} is a single .npy array, not a state file (an .npz "
                                  "archive that --save-state writes)")
-        try:
-            with data:
+        # Sizes first, from the archive's directory: a zip bomb inflated for minutes before
+        # anything said no. A state of this run holds each quantity decoded (float64) and as
+        # texels, a few times its textures' bytes; anything far beyond that is not one.
+        largest = 8 * sum(b.layout.count * 4 * 8 * b.parts for b in self.sim.buffers.values())
+        largest += 2 ** 20
+        with data:
+            for info in data.zip.infolist():
+                if info.file_size > largest:
+                    data.close()
+                    raise ParameterError(
+                        f"{where}: its member {info.filename!r} inflates to {info.file_size} "
+                        f"bytes; a state of this run holds at most {largest}")
+            try:
                 arrays = {k: data[k] for k in data.files}
-        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
-            raise ParameterError(f"{where} is not a state file ({error})") from None
+            except (OSError, ValueError, EOFError, zipfile.BadZipFile, MemoryError) as error:
+                raise ParameterError(f"{where} is not a state file "
+                                     f"({type(error).__name__}: {error})") from None
         if "meta" not in arrays:
             raise ParameterError(f"{where} holds no run's state (no 'meta': write one with "
                                  "--save-state)")

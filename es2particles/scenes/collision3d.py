@@ -204,7 +204,7 @@ class Collision3D(Emitter):
         if self.max_substeps > SUBSTEP_LIMIT:
             raise ParameterError(
                 f"dt {p.dt:g} at max speed {p.max_speed:g} (and the object's motion) with voxels "
-                f"of {f.voxel * p.scale:.3g} needs {self.max_substeps} sub-steps of half a voxel; "
+                f"of {f.voxel * p.scale:.3g} needs {_count(self.max_substeps)} sub-steps of half a voxel; "
                 f"at most {SUBSTEP_LIMIT}: lower --dt or --field-resolution")
         self.warn_of_cost(SUBSTEPS)
 
@@ -355,3 +355,9 @@ class Collision3D(Emitter):
             lines.append("  ASTC HDR (the chapter's half floats, compressed): this context lacks "
                          "GL_KHR_texture_compression_astc_hdr; no row")
         return lines
+
+
+def _count(n):
+    """A whole count as a person reads it: exact below a billion, else in powers of ten (a
+    300-digit count was printed digit by digit)."""
+    return str(n) if n < 10 ** 9 else f"{float(n):.3g}"

@@ -18,7 +18,6 @@ said so.
 import argparse
 import json
 import os
-import statistics
 import subprocess
 import sys
 import time
@@ -29,6 +28,7 @@ sys.path.insert(0, str(ROOT))
 
 from es2particles import open_context  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
+from es2particles.report.measure import median_time  # noqa: E402
 from es2particles.scenes import BUILT_IN, scene_class  # noqa: E402
 
 GOALS = {"dejong 2^20 frames/s": 1000, "dejong 2^24 frames/s": 60,
@@ -81,18 +81,6 @@ def log2(count):
     return f"2^{count.bit_length() - 1}"
 
 
-def median_seconds(function, repeats, finish):
-    function()
-    finish()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        finish()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def frame_seconds(ctx, scene, particles, size, repeats, steps=1):
     """Seconds of one frame: ``steps`` steps and a render, finished."""
     with Pipeline(ctx, scene, particles=particles, size=size, steps=0) as pipeline:
@@ -101,13 +89,13 @@ def frame_seconds(ctx, scene, particles, size, repeats, steps=1):
         def frame():
             pipeline.step(steps)
             pipeline.render()
-        return median_seconds(frame, repeats, ctx.finish)
+        return median_time(frame, ctx.finish, repeats)
 
 
 def step_seconds(ctx, scene, particles, size, repeats):
     with Pipeline(ctx, scene, particles=particles, size=size, steps=0) as pipeline:
         pipeline.begin(1)
-        return median_seconds(lambda: pipeline.step(1), repeats, ctx.finish)
+        return median_time(lambda: pipeline.step(1), ctx.finish, repeats)
 
 
 def bandwidth():

@@ -14,9 +14,7 @@ how each grows from one size to the next. Timings are benchmark output: no test 
 """
 
 import argparse
-import statistics
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,17 +24,12 @@ import wind_reference as ref  # noqa: E402
 
 from es2particles import open_context  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
+from es2particles.report.measure import median_time  # noqa: E402
 from es2particles.scenes.wind import Wind  # noqa: E402
 
 
-def median_ms(function, repeats):
-    function()  # warm-up: programs compiled, memory touched
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        function()
-        times.append((time.perf_counter() - start) * 1e3)
-    return statistics.median(times)
+def median_ms(function, repeats, finish=lambda: None):
+    return median_time(function, finish, repeats) * 1e3
 
 
 def ours(ctx, cells, particles, repeats):
@@ -44,10 +37,7 @@ def ours(ctx, cells, particles, repeats):
     with Pipeline(ctx, scene, particles=particles, size=(256, 256), steps=0) as pipeline:
         pipeline.begin(1)
 
-        def step():
-            pipeline.step(1)
-            ctx.finish()
-        return median_ms(step, repeats)
+        return median_ms(lambda: pipeline.step(1), repeats, ctx.finish)
 
 
 def numpy_peer(cells, particles, repeats):

@@ -651,6 +651,8 @@ def _run(args):
                     pipeline.save_state(state_path)
                 if config_path is not None:
                     write_run(run, scene, config_path)
+                for line in scene.after_run(pipeline.sim):  # once a run: what it saw
+                    print(f"es2particles: note: {line}", file=sys.stderr)
                 said = (f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, "
                         f"{pipeline.sim.count} particles, {pipeline.sim.steps_done} steps, "
                         f"{frames} frame(s))")

@@ -205,6 +205,11 @@ class Scene:
         described = self.params.describe() if hasattr(self, "params") else ""
         return [f"parameters: {described}"] if described else []
 
+    def after_run(self, sim):
+        """Lines a run says once, at its end, of what its state shows (values held at a range's
+        edge, say); none by default."""
+        return []
+
     def measured(self, ctx):
         """Lines the printed plan measures on the context (slow figures), after describe()."""
         return []

@@ -334,6 +334,18 @@ class Wind(Scene):
               defines={"WRITE_LIFE": None})
         return g
 
+    def after_run(self, sim):
+        """The faces whose wind sits at the range's edge (+-max speed: clamped on write), if
+        any, said once."""
+        u = self.params.max_speed
+        at_edge = sum(int(np.count_nonzero(np.abs(sim.download(q)) >= u * (1 - 2 / 65024)))
+                      for q in ("u", "v"))
+        if not at_edge:
+            return []
+        faces = sum(np.prod(sim.buffers[q].quantity.domain.shape) for q in ("u", "v"))
+        return [f"{at_edge} of {faces} faces' wind is at +-{u:g} m/s, the range's edge: faster "
+                "air was clamped on write; raise --max-speed"]
+
     def push(self):
         """A drag pulls the air within a tenth of the box's height toward the pointer's
         velocity (the force passes' u_drag_at and u_drag_velocity)."""

@@ -38,6 +38,11 @@ class CostWarning(UserWarning):
     size); the message names the cost, its value and the defaults'."""
 
 
+class RangeWarning(UserWarning):
+    """A quantity's declared range cannot hold a value it will likely be asked to (zero, in
+    RGBA8's 16-bit codes); the message says what it reads back as and which range would."""
+
+
 class GraphError(Es2ParticlesError):
     """A pass graph is inconsistent: a cycle, a read nobody provides, two writers of one quantity."""
 

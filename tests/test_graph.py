@@ -125,3 +125,42 @@ def test_bad_quantity_ranges_are_errors():
         g.quantity("b", 0, float("inf"))
     with pytest.raises(ParameterError, match="GLSL identifier"):
         g.quantity("not a name", 0, 1)
+
+
+def test_a_range_whose_zero_lies_between_codes_is_said_with_one_that_holds_it():
+    """Issue 44, item 7: a clock declared over [-6, 60] and written as 0.0 read back as
+    -0.00028 (0 is 5911.27 codes up), and 0.8% of a user's particles never came alive. The
+    declaration warns, naming a range that holds 0: checked here in float32 as a shader decodes
+    (lo + code / 65024 * span), not through the package's codec."""
+    import re
+    import warnings
+
+    import numpy as np
+
+    from es2particles.errors import RangeWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        PassGraph().quantity("clock", -6, 60, components=1)
+        PassGraph().quantity("symmetric", -6, 6, components=1)
+        PassGraph().quantity("from_zero", 0, 60, components=1)
+    assert [w.category for w in caught] == [RangeWarning], [str(w.message) for w in caught]
+    text = str(caught[0].message)
+    assert "reads back as -0.000277" in text, text
+    wider = float(re.search(r"or \[-6, ([0-9.]+)\]", text).group(1))
+    lo, span = np.float32(-6), np.float32(wider) - np.float32(-6)
+    code = round(6 / (wider + 6) * 65024)
+    assert lo + np.float32(code / 65024) * span == 0.0
+    assert abs(6 / (wider + 6) * 65024 - code) < 1e-6  # on a code, not near one
+
+
+def test_no_built_in_scene_declares_a_range_that_misses_zero():
+    import warnings
+
+    from es2particles.errors import RangeWarning
+    from es2particles.scenes import BUILT_IN, scene_class
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RangeWarning)
+        for name in BUILT_IN:
+            scene_class(name)().graph()

@@ -79,6 +79,8 @@ MESH_FAULTS = [
      "has a coordinate of 1e+300; coordinates must lie within +-1e+10"),
     ("zero.obj", obj_text(TETRAHEDRON, [(0, 1, 2)] + TETRAHEDRON_FACES[1:]),
      "line 5: a face names vertex 0; OBJ counts vertices from 1"),
+    ("claims.ply", ply_text(TETRAHEDRON, [(0, 2, 1), (0, 1, 3)]).replace("3 0 1 3", "5 0 1 3"),
+     "has face 2 claiming 5 indices but holding 3"),
     ("noise.stl", noise(), "could not be read as a mesh"),
     ("noise.obj", noise(seed=29), "could not be read as a mesh"),
 ]

@@ -301,6 +301,8 @@ def _read_mesh_scene(handle, kind, file, named):
     data = handle.read()
     if kind == "obj":
         _check_obj_indices(data, named)
+    elif kind == "ply":
+        _check_ply_lists(data, named)
     stream = io.BytesIO(data)
     stream.name = file.name  # trimesh names the part after it (an open fd's name is a number)
     try:
@@ -335,6 +337,31 @@ def _check_obj_indices(data, named):
         if any(word.split(b"/")[0] in (b"0", b"+0", b"-0") for word in words[1:]):
             raise ParameterError(f"{named} line {number}: a face names vertex 0; OBJ counts "
                                  "vertices from 1")
+
+
+def _check_ply_lists(data, named):
+    """Refuse an ASCII PLY whose face line claims another count of indices than it holds (5
+    claimed, 3 given ran, trimesh reading the next line's numbers as the missing ones). A
+    binary PLY's lists are the reader's to check."""
+    head, _, body = data.partition(b"end_header")
+    lines = head.decode("ascii", "replace").splitlines()
+    if not any(line.strip() == "format ascii 1.0" for line in lines):
+        return
+    elements, order = {}, []
+    for line in lines:
+        words = line.split()
+        if words[:1] == ["element"] and len(words) == 3 and words[2].isdigit():
+            elements[words[1]] = int(words[2])
+            order.append(words[1])
+    if "face" not in elements:
+        return
+    rows = body.splitlines()[1:]  # after the end_header line's own end
+    first = sum(elements[name] for name in order[:order.index("face")])
+    for number, row in enumerate(rows[first:first + elements["face"]], first + 1):
+        words = row.split()
+        if words and words[0].isdigit() and int(words[0]) != len(words) - 1:
+            raise ParameterError(f"{named} has face {number - first} claiming {int(words[0])} "
+                                 f"indices but holding {len(words) - 1}")
 
 
 def _check_raw_mesh(part, named):

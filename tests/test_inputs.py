@@ -601,3 +601,17 @@ def test_a_zip_bomb_as_a_state_is_refused_before_inflating(tmp_path, capsys):
     assert "its member 'position.npy' inflates to 268435584 bytes; a state of this run holds " \
            "at most" in err, err
     assert time.monotonic() - start < 10 and not (tmp_path / "x.png").exists()
+
+
+def test_an_emitter_direction_at_float64_s_edges_is_a_direction():
+    """Issue 44, item 5: a direction of 1e308 overflowed its norm (a numpy warning) and launched
+    every particle along (0, 0, 0); 1e-300 underflowed the same way."""
+    import warnings
+
+    from es2particles.scenes.emitter import PointEmitters
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        emitters = PointEmitters.parse("0,0,0,1e308,0,0; 0,1,0,1e-300,1e-300,0", (-6, -1, -6),
+                                       (6, 7, 6))
+    assert np.allclose(emitters.directions, [[1, 0, 0], [2 ** -0.5, 2 ** -0.5, 0]], atol=1e-15)

@@ -230,7 +230,7 @@ class PointEmitters:
                 raise ParameterError(f"{option}: an emitter's point must lie in {tuple(lo)} .. "
                                      f"{tuple(hi)}, got {row[:3]}")
             row = row + (0.0, 1.0, 0.0, 1.0)[len(row) - 3:]
-            if not np.linalg.norm(row[3:6]) > 0:
+            if not np.max(np.abs(row[3:6])) > 0:
                 raise ParameterError(f"{option}: an emitter's direction must not be zero, got "
                                      f"{row[3:6]}")
             if not 1e-6 <= row[6] <= 1e6:
@@ -238,7 +238,10 @@ class PointEmitters:
                                      f"{row[6]}")
             full.append(row)
         table = np.array(full, dtype=float)
-        directions = table[:, 3:6] / np.linalg.norm(table[:, 3:6], axis=1, keepdims=True)
+        # Scaled by the largest component first: the norm of (1e308, 0, 0) overflowed to inf
+        # (a numpy warning), and every particle was launched along (0, 0, 0).
+        directions = table[:, 3:6] / np.max(np.abs(table[:, 3:6]), axis=1, keepdims=True)
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
         return cls(table[:, :3], directions, table[:, 6] / table[:, 6].sum())
 
     def uniform(self):

@@ -615,3 +615,27 @@ def test_an_emitter_direction_at_float64_s_edges_is_a_direction():
         emitters = PointEmitters.parse("0,0,0,1e308,0,0; 0,1,0,1e-300,1e-300,0", (-6, -1, -6),
                                        (6, 7, 6))
     assert np.allclose(emitters.directions, [[1, 0, 0], [2 ** -0.5, 2 ** -0.5, 0]], atol=1e-15)
+
+
+@pytest.mark.gl
+def test_a_context_used_from_another_thread_says_so(gl):
+    """Issue 44, item 4: GL calls from a thread the context is not current in went nowhere (or
+    crashed); now one line naming what to do."""
+    import threading
+
+    from es2particles import ContextError, Pipeline
+    from es2particles.scenes.dejong import DeJong
+
+    with Pipeline(gl, DeJong(), particles=256, size=(16, 16)) as pipeline:
+        said = []
+
+        def step():
+            try:
+                pipeline.step()
+            except ContextError as error:
+                said.append(str(error))
+        thread = threading.Thread(target=step)
+        thread.start()
+        thread.join()
+        assert said and "opened on another thread" in said[0], said
+        pipeline.step()  # the thread that made it goes on

@@ -6,6 +6,7 @@ releases them all on ``release()`` or at the end of a ``with``. Its :class:`Capa
 probed once (``egl.py``, where a context is opened) or stated (``Capabilities.assumed``).
 """
 
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -154,6 +155,10 @@ class Context:
     def __init__(self, device, probe=None):
         self.device, self._probe = device, probe
         self.backend, self.profile = device.backend, device.profile
+        # A GL context is current in one thread; the one that made it is the one it serves
+        # (a recording device's calls go nowhere, so any thread may make them).
+        self._thread = threading.get_ident() if getattr(device, "mgl", None) is not None \
+            else None
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         Context._current = self  # a new context is current
         self._owned = []
@@ -177,6 +182,10 @@ class Context:
         already is). A released context raises :class:`ContextError`."""
         if not self._open:
             raise ContextError("this context was released; open a new one with open_context()")
+        if self._thread is not None and self._thread != threading.get_ident():
+            raise ContextError("this context was opened on another thread, and a GL context "
+                               "serves the thread that made it: open one in this thread "
+                               "(open_context()), as each cluster worker does")
         if Context._current is not self:
             self.device.make_current()
             Context._current = self

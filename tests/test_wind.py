@@ -165,6 +165,8 @@ def divergence_table(tmp_path, iterations=(10, 20, 40, 80), steps=20, grid="64x6
     return rows
 
 
+@pytest.mark.gl
+@pytest.mark.slow
 def test_the_pressure_solve_converges_to_scipys_and_the_warm_start_helps(tmp_path):
     """The docs' divergence table (docs/scenes/wind.md), from saved states: the pressure's error
     against the exact solve falls with the iterations, and starting from last step's pressure
@@ -227,6 +229,9 @@ BAD = [
     (["--obstacle", "box:0.5,0.5,2,2"], "--obstacle fills the whole box: there is no air"),
     (["--viscosity", "1000"], "--viscosity 1000 gives nu dt / dx^2 = 1.09e+06"),
     (["--advection", "bfecc"], "--advection must be one of semi-lagrangian, maccormack"),
+    (["--viscosity-iterations", "50"], "--viscosity-iterations solve the viscous diffusion, "
+                                       "and --viscosity is 0"),
+    (["--wind", "0,0", "--gusts", "1,3"], "--gusts vary the --wind force, which is 0,0"),
 ]
 
 
@@ -284,7 +289,7 @@ def test_a_taylor_green_vortex_decays_at_its_analytic_rate(gl):
     implicit Euler's error (nu dt (pi / L)^2 = 0.8%) and the grid's (0.3%) with room."""
     n, length, nu, dt, steps, speed = 32, 1.0, 0.05, 1 / 60, 60, 0.05
     scene = Wind(grid=f"{n}x{n}", box=(length, length), walls="slip,slip,slip,slip",
-                 obstacle="none", wind=(0.0, 0.0), gusts=(0.0, 1.0), viscosity=nu,
+                 obstacle="none", wind=(0.0, 0.0), viscosity=nu,
                  viscosity_iterations=60, dt=dt, lifetime=(0.1, 0.2))
     air = reference_air(scene)
     k = np.pi / length
@@ -303,6 +308,7 @@ def test_a_taylor_green_vortex_decays_at_its_analytic_rate(gl):
     assert abs(rate / analytic - 1) <= 0.02
 
 
+@pytest.mark.gl
 def test_air_held_at_the_range_s_edge_is_said_once(tmp_path, capsys):
     """Issue 39's formats: out-of-range velocities are clamped and counted. A wind of 80 m/s^2
     drives the air past --max-speed 4: the run says how many faces sit at the edge, once; the

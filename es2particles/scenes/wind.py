@@ -91,6 +91,12 @@ class WindParams(Params):
             raise ParameterError(f"--lifetime must be MIN,MAX with dt {self.dt:g} <= MIN <= MAX "
                                  f"<= {longest:.4g} s (the life clock counts 32512 steps of "
                                  f"--dt), got {lo:g},{hi:g}")
+        if self.viscosity == 0 and self.viscosity_iterations != 20:
+            raise ParameterError("--viscosity-iterations solve the viscous diffusion, and "
+                                 "--viscosity is 0: give --viscosity NU with them")
+        if not any(self.wind) and self.gusts != (0.5, 2.0):
+            raise ParameterError("--gusts vary the --wind force, which is 0,0: they do nothing "
+                                 "here; give --wind X,Y with them")
         dx, dy = self.cell
         alpha = self.viscosity * self.dt / min(dx, dy) ** 2
         if alpha > MAX_ALPHA:

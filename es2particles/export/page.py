@@ -38,7 +38,7 @@ import numpy as np
 from ..errors import CapabilityError, ParameterError
 from ..frame.plan import frame_value, plan_frame
 from ..frame.settings import DEFAULT
-from ..frame.state import encode_values, fill_texels, part_textures, zero_texels
+from ..frame.state import as_rows, encode_values, fill_texels, part_textures, zero_texels
 from ..gl.context import Capabilities
 from ..gl.shaders import expand
 
@@ -95,10 +95,7 @@ class _Start:
     def upload(self, name, values):
         q = self._quantity(name)
         layout = self._layout(q)
-        if q.domain is not None and np.ndim(values) >= 2 and \
-                np.shape(values)[:2] == q.domain.shape[::-1]:
-            values = np.reshape(values, (layout.count, -1))  # (H, W, c), as Simulation takes
-        self.texels[name] = encode_values(q, layout, values, "rgba8")
+        self.texels[name] = encode_values(q, layout, as_rows(q, layout, values), "rgba8")
 
 
 def _flat(value):

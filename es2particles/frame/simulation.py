@@ -111,11 +111,7 @@ class Simulation:
     def upload(self, name, values):
         """Set quantity ``name`` to world values of shape (count, components); a grid
         quantity's as (H, W, components), row 0 at the bottom (or flat, (W * H, components))."""
-        buffer = self._buffer(name)
-        grid = buffer.quantity.domain
-        if grid is not None and np.ndim(values) >= 2 and np.shape(values)[:2] == grid.shape[::-1]:
-            values = np.reshape(values, (buffer.layout.count, -1))
-        buffer.upload(values)
+        self._buffer(name).upload(values)
 
     def fill_uniform(self, name, lo, hi, rng):
         """Set quantity ``name`` to values drawn uniformly from the box [lo, hi] (one bound per

@@ -318,7 +318,9 @@ class StateBuffer(Textures):
                 self.ctx.clear(framebuffer, colour)
 
     def upload(self, values):
-        """Write world values (count, components) into the fronts (clamped to the range)."""
+        """Write world values (count, components) into the fronts (clamped to the range); a
+        grid quantity's may be (H, W, components)."""
+        values = as_rows(self.quantity, self.layout, values)
         self.write_texels(encode_values(self.quantity, self.layout, values, self.fmt))
 
     def fill_uniform(self, lo, span, rng):
@@ -364,6 +366,15 @@ def part_textures(texels, layout, fmt):
         full = np.zeros((layout.width * layout.height, 4), dtype=numpy_dtype(fmt))
         full[: layout.count] = texels[:, part]
         yield full
+
+
+def as_rows(quantity, layout, values):
+    """``values`` one row an element: a grid quantity's (H, W, components) flattened row by
+    row as its texels are; anything else as it is (``encode_values`` checks it)."""
+    grid = quantity.domain
+    if grid is not None and np.ndim(values) >= 2 and np.shape(values)[:2] == grid.shape[::-1]:
+        return np.reshape(values, (layout.count, -1))
+    return values
 
 
 def encode_values(quantity, layout, values, fmt):

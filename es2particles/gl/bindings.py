@@ -118,12 +118,18 @@ class Interface:
         return "\n".join(self.lines)
 
 
+def _fixed(out, values, what):
+    """Declare each uniform of ``values`` (name -> value, typed from it) once, set from the
+    declaration (``Interface.fixed``)."""
+    for name, value in values.items():
+        if name not in out.owners:
+            kind, suffix = glsl_type(name, value)
+            out.declare(f"uniform {kind} {name}{suffix};", name, what)
+    out.fixed.update(values)
+
+
 def _ranges(out, quantity):
-    q = quantity.name
-    if f"u_{q}_lo" not in out.owners:
-        out.declare(f"uniform vec4 u_{q}_lo;", f"u_{q}_lo", f"the range of quantity {q!r}")
-        out.declare(f"uniform vec4 u_{q}_span;", f"u_{q}_span", f"the range of quantity {q!r}")
-        out.fixed.update(quantity.uniforms())
+    _fixed(out, quantity.uniforms(), f"the range of quantity {quantity.name!r}")
 
 
 def _reader(out, quantity, fmt, this_step, salt):
@@ -158,11 +164,7 @@ def _reader(out, quantity, fmt, this_step, salt):
 
 def _grid_uniforms(out, grid):
     """``u_G_size`` and ``u_G_box`` of grid ``G``, declared once."""
-    g = grid.name
-    if f"u_{g}_size" not in out.owners:
-        out.declare(f"uniform vec2 u_{g}_size;", f"u_{g}_size", f"the size of grid {g!r}")
-        out.declare(f"uniform vec4 u_{g}_box;", f"u_{g}_box", f"the box of grid {g!r}")
-        out.fixed.update(grid.uniforms())
+    _fixed(out, grid.uniforms(), f"the size and box of grid {grid.name!r}")
 
 
 def _read_function(out, q, c, fmt, texels, salt):

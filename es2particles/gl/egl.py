@@ -89,27 +89,6 @@ LINUX_LIBRARIES = {"libgl": "libGL.so.1", "libegl": "libEGL.so.1"}
 
 
 def _create(moderngl, **kwargs):
-    """moderngl.create_context (see :func:`_created`) with the interrupting signals blocked
-    while it runs: the driver's threads (llvmpipe's rasterisers and shader compilers, made with
-    the context) inherit the mask, so SIGINT and SIGTERM reach only the thread that runs Python.
-    Delivered to a driver thread in the middle of a compile, 1 SIGTERM in 60 ended a run in a
-    segmentation fault (measured: `run wind`, killed 0.1-0.6 s in); a signal sent meanwhile is
-    delivered when the mask is lifted."""
-    import signal
-    import threading
-
-    blocked = {signal.SIGINT, signal.SIGTERM}
-    if not hasattr(signal, "pthread_sigmask") or \
-            threading.current_thread() is not threading.main_thread():
-        return _created(moderngl, **kwargs)
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
-    try:
-        return _created(moderngl, **kwargs)
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
-
-
-def _created(moderngl, **kwargs):
     """moderngl.create_context, naming the EGL back-end's libraries on Linux; where one is not
     found under its name, asking again as glcontext would (find_library)."""
     if kwargs.get("backend") == "egl" and sys.platform.startswith("linux"):

@@ -415,7 +415,8 @@ def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
         where = f"{sent.name} after {delay:.2f} s: exit {code}, {err[-500:]!r}"
         assert code in (130, 0, -sent), where
         if code == -sent:  # only before the package's own code runs: the interpreter's way
-            assert delay < 0.15 and list(out.iterdir()) == [], where
+            # (~80 ms here warm; a cold start under load took longer, so the bound is loose)
+            assert delay < 0.5 and list(out.iterdir()) == [], where
             continue
         left = sorted(p.name for p in out.iterdir())
         if code == 130:

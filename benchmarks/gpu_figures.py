@@ -81,9 +81,9 @@ def log2(count):
     return f"2^{count.bit_length() - 1}"
 
 
-def frame_seconds(ctx, scene, particles, size, repeats, steps=1):
-    """Seconds of one frame: ``steps`` steps and a render, finished."""
-    with Pipeline(ctx, scene, particles=particles, size=size, steps=0) as pipeline:
+def frame_seconds(ctx, scene, particles, size, repeats, steps=1, **settings):
+    """Seconds of one frame: ``steps`` steps and a render, finished; ``settings``: Pipeline's."""
+    with Pipeline(ctx, scene, particles=particles, size=size, steps=0, **settings) as pipeline:
         pipeline.begin(1)
 
         def frame():
@@ -118,6 +118,57 @@ def bandwidth():
     return 2 * 10 * x.numel() / (time.perf_counter() - start)
 
 
+MAP = """
+    vec2 p = (gl_FragCoord.xy - 0.5) * 1e-3;
+    for (int i = 0; i < u_n; i++)
+        p = vec2(sin(u_k.x * p.y) - cos(u_k.y * p.x), sin(u_k.z * p.x) - cos(u_k.w * p.y));
+"""
+
+
+def shader_rates(mgl, side, repeats, iterations=64):
+    """Fragment against compute on this card: the same de Jong map ``iterations`` times a texel
+    of a ``side``^2 rgba32f target, in a full-screen fragment pass and in a compute shader (GL
+    4.3), and the fill rate of a pass that only writes. A plain GL 4.3 probe, outside the
+    framework: it says what the card's fragment stage can do at all. Returns {name: seconds}."""
+    import numpy as np
+
+    head = "#version 430\nuniform int u_n; uniform vec4 u_k;\n"
+    fragment = mgl.program(
+        vertex_shader="#version 430\nin vec2 a; void main() { gl_Position = vec4(a, 0.0, 1.0); }",
+        fragment_shader=head + "out vec4 color;\nvoid main() {" + MAP
+        + "    color = vec4(p, 0.0, 1.0);\n}\n")
+    compute = mgl.compute_shader(
+        head + "layout(local_size_x = 16, local_size_y = 16) in;\n"
+        "layout(rgba32f, binding = 0) writeonly uniform image2D u_out;\nvoid main() {"
+        + MAP.replace("gl_FragCoord.xy - 0.5", "vec2(gl_GlobalInvocationID.xy)")
+        + "    imageStore(u_out, ivec2(gl_GlobalInvocationID.xy), vec4(p, 0.0, 1.0));\n}\n")
+    target = mgl.texture((side, side), 4, dtype="f4")
+    fbo = mgl.framebuffer([target])
+    vbo = mgl.buffer(np.array([-1, -1, 3, -1, -1, 3], "f4").tobytes())
+    vao = mgl.vertex_array(fragment, [(vbo, "2f", "a")])
+    for program in (fragment, compute):
+        program["u_k"].value = (1.4, -2.3, 2.4, -2.1)
+    seconds = {}
+    try:
+        for n in (0, iterations):
+            fragment["u_n"].value = compute["u_n"].value = n
+
+            def draw():
+                fbo.use()
+                fbo.viewport = (0, 0, side, side)
+                vao.render()
+
+            def dispatch():
+                target.bind_to_image(0, read=False, write=True)
+                compute.run(side // 16, side // 16)
+            seconds[("fragment", n)] = median_time(draw, mgl.finish, repeats)
+            seconds[("compute", n)] = median_time(dispatch, mgl.finish, repeats)
+    finally:
+        for thing in (vao, vbo, fbo, target, fragment, compute):
+            thing.release()
+    return seconds
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "benchmarks"))
@@ -143,6 +194,32 @@ def main(argv=None):
             seconds = frame_seconds(ctx, DeJong(), count, size, repeats)
             results.add(f"dejong {log2(count)}", 1 / seconds, "frames/s",
                         f"{count} particles, a step and a frame (density, tone map, bloom)")
+        step = step_seconds(ctx, DeJong(), big, size, repeats)
+        results.add(f"dejong step at {log2(big)}", step * 1e3, "ms a step",
+                    f"{big} particles, 3 map iterations, rgba8 packed (the frame less its render)")
+        bare = frame_seconds(ctx, DeJong(), big, size, repeats, bloom=None)
+        results.add(f"dejong {log2(big)} without bloom", 1 / bare, "frames/s",
+                    f"{big} particles, a step and a frame (density, tone map)")
+        side = 1024 if dry else 4096
+        try:
+            rates = shader_rates(ctx.mgl, side, repeats)
+        except Exception as error:  # noqa: BLE001 - a probe the card may not run (GL < 4.3)
+            results.note(f"no fragment/compute probe: {type(error).__name__}: {error}")
+        else:
+            texels, work = side * side, side * side * 64
+            results.add("fill, a fragment pass that only writes", texels / rates[("fragment", 0)]
+                        / 1e9, "Gtexels/s", f"{side}^2 rgba32f, GL 4.3 outside the framework")
+            results.add("fill, a compute shader that only writes", texels / rates[("compute", 0)]
+                        / 1e9, "Gtexels/s", f"{side}^2 rgba32f image stores")
+            frag = work / rates[("fragment", 64)]
+            comp = work / rates[("compute", 64)]
+            results.add("de Jong map in a fragment pass", frag / 1e9, "G maps/s",
+                        f"64 iterations a texel, {side}^2 texels")
+            results.add("de Jong map in a compute shader", comp / 1e9, "G maps/s",
+                        f"the same arithmetic, {side}^2 invocations")
+            results.note(f"the fragment stage runs the de Jong map at {frag / comp:.1%} of the "
+                         "compute rate on this card (es2particles uses only fragment passes, "
+                         "the ES 2.0 model)")
         for name in BUILT_IN:
             cls = scene_class(name)
             scene = cls()

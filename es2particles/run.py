@@ -13,6 +13,7 @@ from argparse import Namespace
 from dataclasses import dataclass, field, replace
 
 from .errors import ParameterError, check_range
+from .io.nesting import check_nesting
 from .frame.settings import FrameSettings
 
 MAX_FRAMES = 100000
@@ -225,23 +226,12 @@ def _toml_loads(text):
         import tomllib
     except ImportError:  # Python before 3.11
         import tomli as tomllib
-    depth = deepest = 0
-    for char in text:  # brackets and braces, strings included: an upper bound of the nesting
-        if char in "[{":
-            depth += 1
-            deepest = max(deepest, depth)
-        elif char in "]}":
-            depth = max(0, depth - 1)
-    if deepest > MAX_TOML_DEPTH:
-        raise ValueError(f"nested {deepest} levels deep; a run or key file needs at most "
-                         f"{MAX_TOML_DEPTH}")
+    check_nesting(text, "a run or key file")
     try:
         return tomllib.loads(text)
     except RecursionError:
         raise ValueError("nested too deep to read") from None
 
-
-MAX_TOML_DEPTH = 32  # brackets and braces open at once
 
 
 def toml_dumps(data):

@@ -413,8 +413,13 @@ def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
         code = run.returncode
         seen[code] = seen.get(code, 0) + 1
         where = f"{sent.name} after {delay:.2f} s: exit {code}, {err[-500:]!r}"
-        assert code in (130, 0, -sent), where
-        if code == -sent:  # only before the package's own code runs: the interpreter's way
+        # A SIGINT while the interpreter's site module runs the .pth files of a large
+        # environment (PyTorch's, on a GPU machine: ~50 ms) is Python's "Fatal Python error:
+        # init_import_site", exit 1, before any of the package's code: the interpreter's way.
+        in_site = (code == 1 and sent == signal.SIGINT and "init_import_site" in err
+                   and "/es2particles/" not in err)
+        assert code in (130, 0, -sent) or in_site, where
+        if code == -sent or in_site:  # only before the package's own code runs
             # (~80 ms here warm; a cold start under load took longer, so the bound is loose)
             assert delay < 0.5 and list(out.iterdir()) == [], where
             continue
@@ -460,9 +465,11 @@ def test_a_run_file_s_odd_values_are_one_line(tmp_path, capsys, monkeypatch, tex
     ("[1, 2]", "its 'meta' must be a JSON object (what --save-state writes), got list"),
     ("null", "its 'meta' must be a JSON object (what --save-state writes), got NoneType"),
     ("5", "its 'meta' must be a JSON object (what --save-state writes), got int"),
-    ("[" * 3000 + "]" * 3000, "its 'meta' is not JSON (or nested too deep)"),
+    ("[" * 3000 + "]" * 3000, "its 'meta' is not JSON (nested 3000 levels deep; a state's "
+                              "meta needs at most 32)"),
+    ('{"a": ' * 33 + "1" + "}" * 33, "nested 33 levels deep"),
     (None, "is a single .npy array, not a state file"),
-], ids=["list", "null", "number", "deep", "npy"])
+], ids=["list", "null", "number", "deep", "33 deep", "npy"])
 def test_a_state_file_s_odd_meta_is_one_line(tmp_path, capsys, meta, said):
     """Issue 44, item 4: each was an AttributeError or RecursionError traceback."""
     if meta is None:

@@ -4,7 +4,7 @@ splat, shading through it, why "over" needs back to front, and the scene end to 
 
 The passes are compared step by step with the twin's step from the GPU's own state, each particle
 within its own bound derived from float32 and the format (the air's float32 error from its noise
-lattices' local Hessians, the built-in sin and cos, each pass's roundings, the writes' half code
+lattices' local Hessians, lib/trig.glsl's sin and cos, each pass's roundings, the writes' half code
 or float16 ulp): a half-code bias in every RGBA8 write fails the packed comparison."""
 
 from contextlib import contextmanager
@@ -89,8 +89,8 @@ def test_the_step_solves_stokes_relaxation_exactly_for_the_air_it_sees(tau, dt):
 # PSI offsets, which moves each noise's gradient by its local Hessian (finite differences of the
 # twin's analytic gradient) and its value by its gradient; the curl takes the gradients times s
 # (times sqrt 2 for the curl, 1 for J^T n), the ramp terms the values; plus test_flow's 32 U of
-# the sizes summed for the arithmetic. The sphere's centre and velocity come from the built-in
-# sin and cos of w t, within TRIG_ERROR (test_builtin_sin_and_cos_are_within_the_trig_error) and
+# the sizes summed for the arithmetic. The sphere's centre and velocity come from lib/trig.glsl's
+# sin and cos of w t, within TRIG_ERROR (test_numerics.py; the built-ins were not on NVIDIA) and
 # w t's roundings, moving the air by test_flow's bound of its gradient (the dipole by (R / r)^3).
 # A point on the sphere may be on either side of it in float32: the air is then the sphere's
 # velocity or the ideal flow slipping past it. Then each pass's roundings.
@@ -247,22 +247,6 @@ def assert_outside_sphere(p, x, t):
     k = np.argmax(depth - allowed)
     assert depth[k] <= allowed[k], (f"a particle {depth[k]:.3e} m inside the sphere, beyond "
                                     f"float32's {allowed[k]:.3e}")
-
-
-def test_builtin_sin_and_cos_are_within_the_trig_error(gl):
-    """The smoke's sway takes the driver's sin and cos (not lib/trig.glsl): within +-100 they are
-    within TRIG_ERROR of float64 here too, the error the air's bound carries."""
-    from conftest import run_fullscreen
-
-    x = np.random.default_rng(7).uniform(-100, 100, 64 * 64).astype(np.float32)
-    source = gl.texture((64, 64), "rgba32f", data=np.repeat(x, 4).astype(np.float32).tobytes())
-    try:
-        out = run_fullscreen(gl, "trig.frag", source, "rgba32f")  # .zw: sin(x), cos(x)
-    finally:
-        gl.free(source)
-    for k, f in ((2, np.sin), (3, np.cos)):
-        error = np.abs(out[:, k] - f(x.astype(np.float64))).max()
-        assert error <= TRIG_ERROR, f"built-in {f.__name__}: {error:.3e} > TRIG_ERROR {TRIG_ERROR}"
 
 
 def check(label, got, want, bound, write=0.0):

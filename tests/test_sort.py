@@ -308,7 +308,12 @@ def test_order_glsl_decodes_slots_in_a_vertex_shader(gl, fmt, tmp_path):
         finally:
             group.release()
     assert np.array_equal(out[:, 0], order.astype(np.float32)), "order_index"
-    np.testing.assert_array_equal(out[:, 1:3], state.texel_uv()[order], err_msg="order_state_uv")
+    # The texel centre (i + 0.5) / size is one division: GLSL allows it 2.5 ulps (4.x, ES 3.00;
+    # ES 1.00 states none). llvmpipe rounds it correctly; NVIDIA's driver multiplies by a
+    # reciprocal, 1 ulp off in 19% of these (an H200, driver 580). Either way the same texel.
+    exact = state.texel_uv()[order]
+    ulps = np.abs(out[:, 1:3] - exact) / np.spacing(exact)
+    assert ulps.max() <= 2.5, f"order_state_uv: {ulps.max():.3g} ulps from the texel centre"
 
 
 def test_shaders_are_valid_glsl_es_100_in_every_build(gl, tmp_path):

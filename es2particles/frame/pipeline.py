@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 
 from ..errors import Es2ParticlesError, NothingDrawnWarning, ParameterError, check_range
+from ..io.nesting import check_nesting
 from . import memory
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
@@ -361,10 +362,11 @@ class Pipeline:
             raise ParameterError(f"{where} holds no run's state (no 'meta': write one with "
                                  "--save-state)")
         try:
-            meta = json.loads(str(arrays["meta"]))
-        except (ValueError, RecursionError):
-            raise ParameterError(f"{where}: its 'meta' is not JSON (or nested too deep)") \
-                from None
+            text = str(arrays["meta"])
+            check_nesting(text, "a state's meta")
+            meta = json.loads(text)
+        except ValueError as error:
+            raise ParameterError(f"{where}: its 'meta' is not JSON ({error})") from None
         if not isinstance(meta, dict):
             raise ParameterError(f"{where}: its 'meta' must be a JSON object (what --save-state "
                                  f"writes), got {type(meta).__name__}")

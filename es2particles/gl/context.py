@@ -50,6 +50,7 @@ class Capabilities:
     blendable: dict = field(default_factory=dict)
     extensions: frozenset = frozenset()
     probe_store_rule: object = field(default=None, repr=False, compare=False)
+    probe_multiply_add: object = field(default=None, repr=False, compare=False)
 
     @classmethod
     def assumed(cls, **changes):
@@ -87,6 +88,20 @@ class Capabilities:
         return self._store_rule
 
     @property
+    def multiply_add(self):
+        """How a shader's a * b + c rounds ("fused (one rounding)" or "two roundings"): probed
+        the first time it is asked for, then kept."""
+        if not hasattr(self, "_multiply_add"):
+            self._multiply_add = (self.probe_multiply_add() if self.probe_multiply_add
+                                  else "unknown")
+        return self._multiply_add
+
+    @property
+    def fused_multiply_add(self):
+        """True where the driver fuses a * b + c (NVIDIA's does; llvmpipe's does not)."""
+        return self.multiply_add.startswith("fused")
+
+    @property
     def software_rasteriser(self):
         """True for a CPU rasteriser that bins a whole draw before rasterising it (llvmpipe,
         softpipe): large point draws are cut into slices there (a stage's ``slice``,
@@ -107,6 +122,7 @@ class Capabilities:
             rows.append((f"{name} render target / additive blend",
                          f"{_yes(self.renderable.get(name))} / {_yes(self.blendable.get(name))}"))
         rows.append(("8-bit store of a float channel", self.store_rule))
+        rows.append(("a * b + c in a shader", self.multiply_add))
         return rows
 
     def __str__(self):

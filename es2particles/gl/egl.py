@@ -115,6 +115,7 @@ def probe_capabilities(ctx):
         point_size_range=tuple(info.get("GL_POINT_SIZE_RANGE", (1.0, 1.0))),
         extensions=frozenset(ctx.device.extensions()),
         probe_store_rule=lambda: _probe_store_rule(ctx),
+        probe_multiply_add=lambda: _probe_multiply_add(ctx),
     )
 
     def probe_format(fmt):
@@ -126,17 +127,17 @@ def probe_capabilities(ctx):
     return caps
 
 
-def _draw_constant(ctx, fmt, colour, blends=1):
+def _draw_constant(ctx, fmt, colour, blends=1, shader="lib/constant.frag", uniform="u_colour"):
     """Render a constant colour into a 4x4 target of ``fmt``: once, then ``blends`` times more
     with additive blending; the first texel after each draw, as float64 (r32f: only .r means
-    anything)."""
+    anything). ``shader`` and its ``uniform``: another probe's constant."""
     group = ctx.group()
     try:
         tex = group.texture((4, 4), fmt)
         fbo = group.framebuffer(tex)
         ctx.clear(fbo, (0, 0, 0, 0))
-        command = DrawCommand(group, "format probe", "lib/constant.frag")
-        command.set("u_colour", tuple(colour))
+        command = DrawCommand(group, "format probe", shader)
+        command.set(uniform, tuple(colour))
         components = TEXTURE_FORMATS[fmt][0]
         texels = []
         for draw in range(1 + blends):
@@ -177,3 +178,15 @@ def _probe_store_rule(ctx):
         if np.array_equal(store_unorm8(colour, rule), got):
             return "round-to-nearest" if rule == "round" else rule
     return "unknown (bytes %s)" % got.astype(int).tolist()
+
+
+def _probe_multiply_add(ctx):
+    """Whether a shader's a * b + c is one rounding (fused) or two: lib/fma_probe.frag. NVIDIA's
+    driver fuses, llvmpipe does not; a numpy twin that rounds each step (twins/trig.py) then
+    matches the shader only to within an ulp or so, not bit for bit."""
+    if not ctx.caps.renderable.get("rgba32f"):
+        return "unknown (no rgba32f target)"
+    a = float(np.float32(1 + 2.0 ** -12))
+    got = _draw_constant(ctx, "rgba32f", (a, a, 1 + 2.0 ** -11), blends=0,
+                         shader="lib/fma_probe.frag", uniform="u_abc")[0][0]
+    return {0.0: "two roundings", 1.0: "fused (one rounding)"}.get(float(got), f"unknown ({got!r})")

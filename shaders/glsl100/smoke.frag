@@ -19,8 +19,11 @@
 // u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
 // (rest centre, radius), u_sphere_drift, u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
 // u_emission (orbit period, spawn radius), u_lifetime. numpy twin: es2particles/twins/smoke.py.
+// sin and cos of the sway and the orbit are lib/trig.glsl's: NVIDIA's built-ins are 9.3e-6 off
+// float64 for |x| <= 100 (an H200, driver 580), 78 times the error the air's bound carries.
 #include "lib/life.glsl"
 #include "lib/flow.glsl"
+#include "lib/trig.glsl"
 
 const float TAU = 6.2831853;
 
@@ -30,8 +33,9 @@ const float TAU = 6.2831853;
 vec3 sphere_centre(float t, out vec3 velocity)
 {
     float w = TAU / u_sway.w;
-    velocity = u_sway.xyz * w * cos(w * t) + u_sphere_drift;
-    return u_sphere.xyz + u_sway.xyz * sin(w * t);
+    vec2 sc = trig_sin_cos(w * t);
+    velocity = u_sway.xyz * w * sc.y + u_sphere_drift;
+    return u_sphere.xyz + u_sway.xyz * sc.x;
 }
 
 vec3 air(vec3 x, float t)
@@ -50,8 +54,8 @@ vec3 air(vec3 x, float t)
 
 vec3 emitter_at(float t)
 {
-    float w = TAU / u_emission.x;
-    return u_emitter.xyz + u_emitter.w * vec3(cos(w * t), 0.0, sin(w * t));
+    vec2 sc = trig_sin_cos(TAU / u_emission.x * t);
+    return u_emitter.xyz + u_emitter.w * vec3(sc.y, 0.0, sc.x);
 }
 
 // A new particle's place: uniform in a ball of the spawn radius around the emitter.

@@ -183,6 +183,10 @@ def main(argv=None):
         caps = ctx.caps
         commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                                 capture_output=True, text=True).stdout.strip() or "unknown"
+        changed = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain",
+                                  "--untracked-files=no"], capture_output=True, text=True).stdout
+        if changed.strip():  # a copied tree whose .git lags it (the device tool's) says so
+            commit += " (the working tree differs from it)"
         header = {"renderer": caps.renderer, "GL version": getattr(caps, "version", ""),
                   "CPU cores": os.cpu_count(), "commit": commit,
                   "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),

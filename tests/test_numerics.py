@@ -79,9 +79,12 @@ def test_trig_is_float64_sin_and_cos_to_float32_rounding(gl, reach, tolerance):
     tests/bounds.py's TRIG_ERROR, which the attractors' float64 bounds carry.
 
     A driver that fuses a * b + c into one rounding (NVIDIA's: ``caps.fused_multiply_add``)
-    computes the polynomials with fewer roundings than the twin: there the float64 bound still
-    holds and the twin is matched to within FUSED_ULPS float32 ulps (measured on an H200: 460
-    of 4096 values 1 ulp apart, none more), not bit for bit."""
+    computes with fewer roundings than the twin, so not bit for bit: there the float64 bound
+    still holds, and within +-100 (where n times the first two parts of pi/2 is exact either
+    way, so only the polynomials differ) the twin is matched to 2^-24, half an ulp of 1 (an
+    H200: 590 of 4096 sines one ulp of a value below 1 apart, none more). At 2e4 the products
+    n * (pi/2)'s parts round in the twin and not fused, so the two differ by up to their two
+    bounds: only the float64 bound is asserted."""
     from es2particles.twins.trig import sin_cos
 
     x = np.random.default_rng(7).uniform(-reach, reach, 64 * 64).astype(np.float32)
@@ -98,12 +101,9 @@ def test_trig_is_float64_sin_and_cos_to_float32_rounding(gl, reach, tolerance):
         if not gl.caps.fused_multiply_add:
             assert np.array_equal(out[:, k], twin), \
                 f"trig_{name}: {np.count_nonzero(out[:, k] != twin)} values differ from the twin"
-            continue
-        ulps = np.abs(out[:, k].view(np.int32).astype(np.int64) - twin.view(np.int32))
-        assert ulps.max() <= FUSED_ULPS, f"trig_{name} (fused multiply-add): {ulps.max()} ulps"
-
-
-FUSED_ULPS = 2  # where a * b + c is fused: each fused step is one rounding fewer, half an ulp
+        elif reach <= 100:
+            apart = np.abs(out[:, k].astype(np.float64) - twin).max()
+            assert apart <= 2.0 ** -24, f"trig_{name} (fused multiply-add): {apart:.3g} apart"
 
 
 def test_the_multiply_add_probe_finds_what_the_driver_does(gl):

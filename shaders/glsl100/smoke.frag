@@ -19,8 +19,8 @@
 // u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
 // (rest centre, radius), u_sphere_drift, u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
 // u_emission (orbit period, spawn radius), u_lifetime. numpy twin: es2particles/twins/smoke.py.
-// sin and cos of the sway and the orbit are lib/trig.glsl's: NVIDIA's built-ins are 9.3e-6 off
-// float64 for |x| <= 100 (an H200, driver 580), 78 times the error the air's bound carries.
+// sin and cos of the sway and the orbit are lib/trig.glsl's: NVIDIA's built-ins are up to 9.7e-6
+// off float64 for |x| <= 100 (an H200, driver 580), ~80 times the error the air's bound carries.
 #include "lib/life.glsl"
 #include "lib/flow.glsl"
 #include "lib/trig.glsl"

@@ -386,6 +386,16 @@ def _add_run_options(parser, command):
             help="close the window after N frames (scripts and tests)")
         add("--screenshot", default=None, metavar="FILE.png",
             help="write the last frame shown to this file when the window closes")
+    if command == "export":
+        # run's other options, taken but not shown, so that each is refused in one line saying
+        # why a page does without it (PAGE_REFUSES), not argparse's "unrecognized arguments".
+        for name in PAGE_REFUSES:
+            add("--" + name.replace("_", "-"), default=None, help=argparse.SUPPRESS)
+        add("--frames", default=None, metavar="F",
+            help="frames of the run's animation: the page sets each frame's animated uniforms "
+                 "(--animate-to) as run does, then holds the last (default 1)")
+        add("--steps-per-frame", default=None, metavar="S",
+            help="steps between the page's frames (default 1)")
     if command != "run":
         return
     add("--save-config", default=None, metavar="RUN.toml",
@@ -412,6 +422,19 @@ def _add_run_options(parser, command):
         help="with --workers or --scheduler: end the run, in one line, when the cluster has "
              "had no worker this long while tasks are left; an animation's frames made are "
              "kept for the same command to resume. 1 to 86400 (default 60)")
+
+
+# run's options that a page does without, and why.
+PAGE_REFUSES = {
+    "fps": "a page plays at the browser's frame rate (one frame an animation frame)",
+    "save_config": "export writes the page alone (run --save-config writes a run file, and "
+                   "export --config makes its page)",
+    "save_state": "a page's state lives in the browser (run --save-state writes one)",
+    "load_state": "a page starts from the scene's own start (run --load-state resumes a state)",
+    "workers": "a page runs in one browser, not on a cluster",
+    "scheduler": "a page runs in one browser, not on a cluster",
+    "worker_timeout": "a page runs in one browser, not on a cluster",
+}
 
 
 def with_config_scene(argv):
@@ -485,6 +508,14 @@ def run_of(args):
     return run
 
 
+def _check_animation(run):
+    from .errors import ParameterError
+
+    if run.frames == 1 and run.options.get("animate_to") is not None:
+        raise ParameterError("--animate-to animates over an animation's frames: give --frames "
+                             "F (2 or more) with it; a still has none")
+
+
 def _number(text, option):
     from .errors import ParameterError
 
@@ -510,12 +541,14 @@ def _export(args):
     from .export.page import page_plan, write_page
     from .io.output import check_output
 
+    given = [name for name in PAGE_REFUSES if getattr(args, name, None) is not None]
+    if given:
+        raise ParameterError(f"--{given[0].replace('_', '-')}: {PAGE_REFUSES[given[0]]}")
     out = check_output(args.out, "--out", {".html": "HTML"})
-    if getattr(args, "animate_to", None) is not None:
-        raise ParameterError("--animate-to: a page has no frame count to animate over; move "
-                             "its sliders instead")
     run = run_of(args)
-    plan = page_plan(run.check(), run.settings)
+    _check_animation(run)
+    plan = page_plan(run.check(), run.settings, frames=run.frames,
+                     steps_per_frame=run.steps_per_frame)
     write_page(plan, out)
     passes = sum(1 for s in plan["stages"] if s["step"])
     print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "
@@ -583,9 +616,7 @@ def _run(args):
     start = time.perf_counter()
     run = run_of(args)
     frames = run.frames
-    if frames == 1 and run.options.get("animate_to") is not None:
-        raise ParameterError("--animate-to animates over an animation's frames: give --frames "
-                             "F (2 or more) with it; a still has none")
+    _check_animation(run)
     out = check_output(args.out, "--out", ANIMATION_SUFFIXES if frames > 1 else IMAGE_SUFFIXES)
     if frames > MAX_IMAGE_FRAMES and out.suffix.lower() != ".mp4":
         raise ParameterError(f"frames must be at most {MAX_IMAGE_FRAMES} for {out.suffix} "

@@ -218,6 +218,102 @@ def test_collision_page_runs_with_life_and_scene_textures(gl, browser, tmp_path)
         assert r >= 0.99, f"{path}: block density correlation {r:.4f}"
 
 
+def _page_density(browser, tmp_path, scene, call, path=None, **settings):
+    """The density (h, w) the page draws after ``call`` (an expression on window.es2particles),
+    from the page of ``page_plan(scene, **settings)`` (no bloom; no warm-up steps unless
+    given)."""
+    page_path = tmp_path / f"{scene.name}-{path}.html"
+    write_page(page_plan(scene, **{"steps": 0, "bloom": None, **settings}), page_path)
+    page = Page(browser, page_path, f"&density={path}" if path else "")
+    try:
+        assert not page.errors and not page.call("error"), (page.errors, page.call("error"))
+        page.call(call)
+        density = page.call("density()")
+        w, h = settings["size"]
+        assert density["flagged"] == 0
+        return np.frombuffer(base64.b64decode(density["values"]), np.float32).reshape(h, w)
+    finally:
+        page.close()
+
+
+@pytest.mark.parametrize("path", ["float", "bytes"])
+def test_an_accumulated_page_sums_its_samples_as_egl_does(gl, browser, tmp_path, path):
+    """--accumulate on a page (issue 40): each frame sums its samples, each after a step of
+    its own with the reseeded grid shifted by the plan's per-sample jitter (the same table EGL
+    takes), into one density: every pixel's count equal to EGL's, k * n points in all."""
+    scene, n, size, k = DeJong(reseed=True), 2 ** 16, (256, 256), 4
+    _, counts, _ = egl_run(gl, scene, 1, particles=n, size=size, accumulate=k)
+    _, plain, _ = egl_run(gl, scene, 1, particles=n, size=size)
+    web = _page_density(browser, tmp_path, scene, "step(1)", path, particles=n, size=size,
+                        accumulate=k)
+    assert counts.sum() == k * n and plain.sum() == n  # every sample's every point, once
+    assert not np.array_equal(counts, k * plain)  # the samples were shifted, not repeated
+    exact = np.mean(web == counts)
+    assert exact == 1.0, f"{path}: {exact:.3%} of the pixels count as EGL's"
+
+
+def test_an_animated_page_draws_the_run_s_frames(gl, browser, tmp_path):
+    """--frames with --animate-to on a page (issue 40): the page sets each frame's coefficients
+    from the plan's animation table, as Pipeline.frames does. Its last frame is the run's last
+    (every pixel's count), and that is the still of the target coefficients (t = 1: (1 - t) a
+    + t b is b exactly); a middle frame is neither end's."""
+    target = (1.9, -2.1, 2.2, -1.8)
+    scene = DeJong(reseed=True, animate_to=target)
+    n, size, frames = 2 ** 16, (256, 256), 5
+    settings = dict(particles=n, size=size, steps=1, bloom=None)  # a frame: one reseeded step
+
+    def egl_frames(scene, frames):
+        with Pipeline(gl, scene, **settings) as pipeline:
+            out = []
+            for _ in pipeline.frames(frames):
+                counts = np.frombuffer(pipeline.executor.read("density"), np.float32)
+                out.append(counts.reshape(size[1], size[0], -1)[..., 0].copy())
+            return out
+
+    run = egl_frames(scene, frames)
+    still = egl_frames(DeJong(reseed=True, coefficients=target), 1)[0]
+    start = egl_frames(DeJong(reseed=True), 1)[0]
+    assert np.array_equal(run[-1], still) and np.array_equal(run[0], start)
+    assert not np.array_equal(run[2], still) and not np.array_equal(run[2], start)
+    page = {}
+    for shown in (2, frames - 1, frames + 3):  # past the last frame the page holds it
+        page[shown] = _page_density(browser, tmp_path, scene, f"frames({shown})",
+                                    particles=n, size=size, steps=1, frames=frames)
+    assert np.array_equal(page[2], run[2])
+    assert np.array_equal(page[frames - 1], run[-1])
+    assert np.array_equal(page[frames + 3], run[-1])
+
+
+def test_an_animated_page_s_sliders_follow_until_a_hand_takes_one(gl, browser, tmp_path):
+    """The sliders show the animated coefficients frame by frame; a slider moved takes its
+    coefficient from the animation for good, the others keeping the values they had: the
+    frame drawn then is EGL's still of those coefficients, every pixel's count."""
+    target = (1.9, -2.1, 2.2, -1.8)
+    n, size = 2 ** 14, (128, 128)
+    page_path = tmp_path / "animated.html"
+    write_page(page_plan(DeJong(reseed=True, animate_to=target), steps=1, bloom=None,
+                         particles=n, size=size, frames=5), page_path)
+    page = Page(browser, page_path)
+    try:
+        page.call("frames(4)")
+        shown = page.page.eval_on_selector_all("input[data-control]",
+                                               "els => els.map((e) => Number(e.value))")
+        assert shown == list(target)
+        page.page.eval_on_selector("input[data-control=a]", """(e) => {
+            e.value = "1"; e.dispatchEvent(new Event("input")); }""")
+        page.call("frames(2)")
+        density = page.call("density()")
+        web = np.frombuffer(base64.b64decode(density["values"]), np.float32).reshape(128, 128)
+    finally:
+        page.close()
+    with Pipeline(gl, DeJong(reseed=True, coefficients=(1.0, *target[1:])), steps=1,
+                  bloom=None, particles=n, size=size) as pipeline:
+        next(pipeline.frames(1))
+        still = np.frombuffer(pipeline.executor.read("density"), np.float32)
+        still = still.reshape(128, 128, -1)[..., 0]
+    assert still.sum() > 0 and np.array_equal(web, still)
+
+
 def test_page_names_a_density_path_it_does_not_have(browser, tmp_path):
     page_path = tmp_path / "page.html"
     write_page(page_plan(Clifford(), particles=4096, size=(64, 64)), page_path)
@@ -263,16 +359,45 @@ def cli(*args, cwd):
      "--gradient: scene 'fountain' does not use this setting (it draws 3D sprites"),
     (["export", "smoke", "--opacity", "2"], "p.html", "--opacity must be in [0, 1], got 2"),
     (["export", "dejong", "--format", "rgba16f"], "p.html", "--format rgba16f"),
-    (["export", "dejong", "--accumulate", "4"], "p.html", "--accumulate"),
     (["export", "dejong"], "p.htm", "--out must end in .html"),
-    (["export", "dejong", "--animate-to", "1,2,3,4"], "p.html", "--animate-to"),
+    (["export", "dejong", "--animate-to", "1,2,3,4"], "p.html", "--animate-to animates over"),
     (["export", "dejong", "--size", "5000x5000"], "p.html", "size width"),
+    (["export", "dejong", "--fps", "24"], "p.html", "--fps: a page plays at the browser's"),
+    (["export", "dejong", "--save-state", "s.npz"], "p.html", "--save-state: a page's state"),
+    (["export", "dejong", "--load-state", "s.npz"], "p.html", "--load-state: a page starts"),
+    (["export", "dejong", "--save-config", "r.toml"], "p.html", "--save-config: export writes"),
+    (["export", "dejong", "--workers", "2"], "p.html", "--workers: a page runs in one browser"),
+    (["export", "dejong", "--scheduler", "tcp://x:1"], "p.html", "--scheduler: a page runs"),
+    (["export", "dejong", "--worker-timeout", "5"], "p.html", "--worker-timeout: a page runs"),
 ])
 def test_export_refuses_in_one_line(tmp_path, args, out, message):
     result = cli(*args, "--out", str(tmp_path / out), cwd=tmp_path)
     assert result.returncode == 2 and message in result.stderr, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
     assert list(tmp_path.iterdir()) == []  # nothing written
+
+
+def _options(command, scene):
+    """Every option string of ``command SCENE``'s parser, shown in --help or not."""
+    from es2particles.cli import build_parser
+
+    parser = build_parser([command, scene])
+    sub = next(a for a in parser._subparsers._group_actions[0].choices[command]._actions
+               if a.dest == "scene").choices[scene]
+    return {o for a in sub._actions for o in a.option_strings if o not in ("-h", "--help")}
+
+
+@pytest.mark.parametrize("scene", ["dejong", "clifford", "collision", "fountain", "collision3d",
+                                   "confetti", "smoke", "wind"])
+def test_every_option_run_takes_export_takes_or_refuses(scene):
+    """Issue 40: every option of ``run SCENE`` is one ``export SCENE`` parses: it acts on the
+    page or is refused in one line that says why (PAGE_REFUSES; the frame settings a scene
+    does not use are refused by check_settings as in run)."""
+    from es2particles.cli import PAGE_REFUSES
+
+    missing = _options("run", scene) - _options("export", scene)
+    assert not missing, f"export {scene} does not take {sorted(missing)}"
+    assert {"--" + n.replace("_", "-") for n in PAGE_REFUSES} <= _options("export", scene)
 
 
 def test_export_writes_one_self_contained_page(tmp_path):

@@ -142,15 +142,16 @@ def page_settings(settings=None, **given):
     if settings.format not in (DEFAULT, "rgba8"):
         raise ParameterError(f"--format {settings.format}: a page keeps its state in rgba8, the "
                              "one format every ES 2.0 context can render to")
-    if settings.accumulate not in (DEFAULT, 1):
-        raise ParameterError("--accumulate: a page draws one sample per frame (leave it at 1)")
     return settings
 
 
-def page_plan(scene, settings=None, **given):
+def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
     """The scene's whole frame as JSON-ready data for the WebGL page (see the module's
     docstring): ``settings`` (a FrameSettings) and keywords as
-    :class:`~es2particles.frame.pipeline.Pipeline` takes them, defaults resolved the same way."""
+    :class:`~es2particles.frame.pipeline.Pipeline` takes them, defaults resolved the same way.
+    ``frames`` and ``steps_per_frame``: the run's animation, whose frame uniforms the page sets
+    frame by frame as Pipeline.frames does (and then holds the last frame's), taking
+    ``steps_per_frame`` steps between frames."""
     from ..frame.pipeline import SeededRandom
 
     settings = page_settings(settings, **given)
@@ -216,6 +217,12 @@ def page_plan(scene, settings=None, **given):
     return {"scene": scene.name, "title": (scene.__doc__ or scene.name).strip().splitlines()[0],
             "layout": {"count": layout.count, "width": layout.width, "height": layout.height},
             "size": list(plan.size), "steps": plan.steps, "seed": plan.settings["seed"],
+            # What a frame or a sample changes, as the plan tables it (FramePlan's animation
+            # and samples): the uniforms each frame sets before its steps, and each of the
+            # accumulate samples' uniforms (sample 0 first).
+            "animation": _animation(plan, frames),
+            "samples": [{k: _flat(v) for k, v in row.items()} for row in plan.samples],
+            "accumulate": plan.accumulate, "steps_per_frame": steps_per_frame,
             "rounding": plan.rounding, "resources": resources, "vertices": vertices,
             "stages": stages, "present": plan.present, "present_program": present,
             "programs": programs.sources, "density": density,
@@ -227,6 +234,12 @@ def page_plan(scene, settings=None, **given):
             "vertex_fetch": any(s.vertex_interface is not None and s.vertex_interface.samplers
                                 for s in plan.stages),
             "plan": plan.describe()}
+
+
+def _animation(plan, frames):
+    """The uniforms of each frame, flat; none at all where nothing is animated."""
+    table = [{k: _flat(v) for k, v in row.items()} for row in plan.animation_table(frames)]
+    return table if any(table) else []
 
 
 def _json_number(value):

@@ -170,13 +170,13 @@ class Pipeline:
         if len(wanted) and not 0 <= wanted[0] <= wanted[-1] < frames:
             raise ParameterError(f"wanted frames must lie in [0, {frames - 1}], got "
                                  f"{wanted[0]}..{wanted[-1]}")
-        sim, scene = self.sim, self.scene
+        scene = self.scene
         self.begin(frames, warm_up)
         visit = wanted if scene.stateless else range((wanted[-1] + 1) if len(wanted) else 0)
         keep = set(wanted)
         for frame in visit:
             if frame:
-                scene.before_frame(sim, frame, frames)
+                self._set(self._animation[frame])
                 self.step(steps_per_frame)
             self.render(frame, frames)
             if frame in keep:
@@ -191,7 +191,8 @@ class Pipeline:
         """Before the first of ``frames`` frames: set its uniforms and run the steps before it
         (``warm_up(pipeline)``, if given, runs them instead)."""
         self._use()
-        self.scene.before_frame(self.sim, 0, frames)
+        self._animation = self.plan.animation_table(frames)
+        self._set(self._animation[0])
         if warm_up is None:
             self.warm_up()
         else:
@@ -271,12 +272,14 @@ class Pipeline:
             self._sample(0, step=False)  # the next frame starts as a plain one would
 
     def _sample(self, sample, step=True):
-        uniforms = self.scene.sample_uniforms(self.share * self.accumulate + sample,
-                                              self.accumulate)
-        if uniforms:
-            self.sim.set_uniforms(uniforms)
+        self._set(self.plan.samples[sample])
         if step:
             self.sim.step()
+
+    def _set(self, uniforms):
+        """Set a frame's or a sample's uniforms (the plan's tables) on the simulation."""
+        if uniforms:
+            self.sim.set_uniforms(uniforms)
 
     # -- results -----------------------------------------------------------------------------------
 

@@ -285,7 +285,14 @@ class FramePlan:
     (``format_note`` says why) and ``rounding`` of the state; ``steps``, run before the first
     frame; ``accumulate``, samples summed into each image; ``camera``: a function of (frame,
     frames) giving the frame's camera (None for 2D); ``motion``: the moving object's
-    :class:`~es2particles.frame.motion.Motion` (None where nothing moves)."""
+    :class:`~es2particles.frame.motion.Motion` (None where nothing moves).
+
+    What a frame or a sample changes is data here, the same for every loop that runs the plan
+    (Pipeline, the cluster's shares, the page): ``animation``, a function of (frame, frames)
+    giving the uniforms a frame sets before its steps (the scene's ``frame_uniforms``; tabled
+    by :meth:`animation_table` once the frame count is known), and ``samples``, the uniforms of
+    each of the ``accumulate`` samples of this share's image (sample 0 first: the plain
+    frame's)."""
 
     scene: str
     layout: Layout
@@ -308,6 +315,15 @@ class FramePlan:
     notes: list = field(default_factory=list)
     settings: dict = field(default_factory=dict)
     layouts: dict = field(default_factory=dict)  # grid name -> its Layout
+    animation: object = None
+    samples: tuple = ({},)
+
+    def animation_table(self, frames):
+        """The uniforms each of ``frames`` frames sets before its steps, one name -> value
+        mapping a frame (empty ones where nothing is animated)."""
+        if self.animation is None:
+            return [{} for _ in range(frames)]
+        return [dict(self.animation(frame, frames)) for frame in range(frames)]
 
     def layout_of(self, quantity):
         """The :class:`~es2particles.frame.state.Layout` of ``quantity``'s domain."""
@@ -616,10 +632,14 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                    for s in b.stages if s.name in culled]
     b.stages = [s for s in b.stages if s.name not in culled]
     b.notes = list(graph.notes) + list(scene.describe()) + b.notes
+    first = settings.share * b.accumulate  # this share's samples follow the shares before it
     return b.finish(present=present, steps=steps, size=size, rendering=rendering,
                     camera=scene.camera_at if rendering.has_camera else None,
                     motion=scene.motion() if rendering.has_camera else None,
-                    settings={"seed": seed, "share": settings.share})
+                    settings={"seed": seed, "share": settings.share},
+                    animation=scene.frame_uniforms,
+                    samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
+                                  for s in range(b.accumulate)))
 
 
 def scene_graph(scene, caps):

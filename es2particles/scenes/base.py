@@ -240,9 +240,3 @@ class Scene:
                 sim.fill_uniform(name, value.lo, value.hi, rng)
             else:
                 sim.upload(name, np.asarray(value))
-
-    def before_frame(self, sim, frame, frames):
-        """Set :meth:`frame_uniforms` on a simulation."""
-        uniforms = self.frame_uniforms(frame, frames)
-        if uniforms:
-            sim.set_uniforms(uniforms)

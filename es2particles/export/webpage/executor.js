@@ -583,6 +583,27 @@
                    multiply: () => gl.blendFunc(gl.ZERO, gl.SRC_COLOR) };
   const live = {};  // uniform -> values the sliders set
   const cursors = {};
+  // What a frame or a sample changes (the plan's animation and samples tables): uniform ->
+  // values now. A slider moved takes its uniform from the animation for good (the hand wins).
+  const scheduled = {};
+  const handed = new Set();
+  let frameIndex = 0;
+  const sliders = [];  // {control, slider, value}: shown values follow the animation
+  function setFrame(f) {
+    const row = plan.animation[Math.min(f, plan.animation.length - 1)] || {};
+    for (const [name, value] of Object.entries(row)) {
+      if (!handed.has(name)) scheduled[name] = value;
+    }
+    for (const { control, slider, value } of sliders) {
+      if (control.uniform in scheduled) {
+        slider.value = scheduled[control.uniform][control.component];
+        value.textContent = Number(slider.value).toFixed(3);
+      }
+    }
+  }
+  function setSample(s) {
+    for (const [name, value] of Object.entries(plan.samples[s])) scheduled[name] = value;
+  }
 
   function inputs(stage) {
     const textures = {};
@@ -627,6 +648,7 @@
   function values(stage, aspect) {
     const out = { ...stage.uniforms };
     for (const name of Object.keys(live)) if (name in out) out[name] = live[name];
+    for (const name of Object.keys(scheduled)) if (name in out) out[name] = scheduled[name];
     for (const name of Object.keys(uniformsOf)) if (name in out) out[name] = uniformsOf[name];
     for (const [name, spec] of Object.entries(stage.frame_uniforms)) {
       out[name] = frameValue(stage, name, spec, aspect);
@@ -713,7 +735,20 @@
     }
   }
 
+  // The density of a frame: its accumulate samples, each after a step of its own (sample 0's
+  // was the frame's), summed into one target, as Pipeline._density draws them.
   function drawDensity(stage) {
+    drawSample(stage, true);
+    for (let s = 1; s < plan.accumulate; s += 1) {
+      setSample(s);
+      step();
+      drawSample(stage, false);
+    }
+    if (plan.accumulate > 1) setSample(0);  // the next frame starts as a plain one would
+    return null;
+  }
+
+  function drawSample(stage, first) {
     const p = programs[stage.program];
     const vertices = Object.keys(stage.attributes).length ? readBack(stage)
       : vertexData[stage.vertices];
@@ -721,7 +756,7 @@
     const intensity = plan.density.intensity;
     const base = values(stage, width / height);
     if (path === "float") {
-      bindTarget(density.sum, [0, 0, 0, 0], false);
+      bindTarget(density.sum, first ? [0, 0, 0, 0] : null, false);
       use(p, { ...base, u_colour: [intensity, intensity, intensity, intensity] }, inputs(stage));
       draw(stage, p, vertices, 0, count);
       densityTexture = density.sum;
@@ -731,12 +766,12 @@
     const batch = plan.density.batch[path];
     const quarter = Math.ceil(batch / 4);
     const hit = levels * code;
-    bindTarget(density.totals[0], [0, 0, 0, 0], false);
-    for (let first = 0; first < count; first += batch) {
+    if (first) bindTarget(density.totals[0], [0, 0, 0, 0], false);
+    for (let start0 = 0; start0 < count; start0 += batch) {
       bindTarget(density.batch, [0, 0, 0, 0], false);
       use(p, { ...base, u_colour: [hit, hit, hit, hit] }, inputs(stage));
       for (let channel = 0; channel < 4; channel += 1) {
-        const start = first + channel * quarter;
+        const start = start0 + channel * quarter;
         const n = Math.min(quarter, count - start);
         if (n <= 0) break;
         gl.colorMask(channel === 0, channel === 1, channel === 2, channel === 3);
@@ -781,7 +816,16 @@
     return out;
   }
 
+  // The next frame of the run, as Pipeline.frames makes it: its uniforms, its steps, its draw.
+  function nextFrame() {
+    frameIndex += 1;
+    setFrame(frameIndex);
+    for (let i = 0; i < plan.steps_per_frame; i += 1) step();
+    frame();
+  }
+
   // -- the page: warm-up, then play; buttons, sliders and the mouse --------------------------------
+  setFrame(0);
   for (let i = 0; i < plan.steps; i += 1) step();
   frame();
 
@@ -793,8 +837,7 @@
   document.getElementById("step").addEventListener("click", () => {
     playing = false;
     label();
-    step();
-    frame();
+    nextFrame();
   });
   const controls = document.getElementById("controls");
   for (const c of plan.controls) {
@@ -809,12 +852,18 @@
     slider.dataset.control = c.label;
     value.textContent = Number(slider.value).toFixed(3);
     slider.addEventListener("input", () => {
+      if (c.uniform in scheduled) {  // the hand takes over from the animated values
+        live[c.uniform] = scheduled[c.uniform].slice();
+        delete scheduled[c.uniform];
+      }
+      handed.add(c.uniform);
       live[c.uniform][c.component] = Number(slider.value);
       value.textContent = Number(slider.value).toFixed(3);
       if (!playing) { step(); frame(); }
     });
     row.append(c.label, slider, value);
     controls.append(row);
+    sliders.push({ control: c, slider, value });
   }
   if (camera) {
     show("camera", "drag to orbit, wheel to zoom");
@@ -851,8 +900,7 @@
   let since = performance.now();
   function tick(now) {
     if (playing) {
-      step();
-      frame();
+      nextFrame();
       frames += 1;
       if (now - since > 1000) {
         show("frames a second", (1000 * frames / (now - since)).toFixed(1));
@@ -867,6 +915,13 @@
   window.es2particles = {
     facts,
     path,
+    // The next n frames of the run (each its uniforms, its steps and its draw), as
+    // Pipeline.frames makes them; returns the frame drawn last.
+    frames(n = 1) {
+      for (let i = 0; i < n; i += 1) nextFrame();
+      gl.finish();
+      return frameIndex;
+    },
     // Run n steps, drawing a frame after the last; returns the steps done so far.
     step(n = 1) {
       for (let i = 0; i < n; i += 1) step();

@@ -314,6 +314,42 @@ def test_an_animated_page_s_sliders_follow_until_a_hand_takes_one(gl, browser, t
     assert still.sum() > 0 and np.array_equal(web, still)
 
 
+# A frame shown in real time runs the steps the seconds since the last are worth at the scene's
+# time step, at most 4 (the rest is dropped), the leftover carried but never beyond one step.
+# By hand, for dt = 1/60 s after 0.04, 0.04, 0.1 and 0.5 s: 2.4 steps due (2 run, 0.4 carried),
+# 2.8 (2, 0.8), 6.8 (4, capped at 1), 31 (4); for dt = 1/30: 1.2 (1, 0.2), 1.4 (1, 0.4),
+# 3.4 (3, 0.4), 15.4 (4); a scene without a time step: one a frame.
+CLOCK = [0.04, 0.04, 0.1, 0.5]
+CLOCK_STEPS = {"collision": [2, 2, 4, 4], "fountain": [1, 1, 3, 4], "dejong": [1, 1, 1, 1]}
+
+
+@pytest.mark.parametrize("name", sorted(CLOCK_STEPS))
+def test_a_playing_page_steps_by_the_window_s_clock(gl, browser, tmp_path, name):
+    """Issue 40: a playing page steps as a live window does (the plan's clock), not once an
+    animation frame; the same seconds give the window (LiveView, a test clock) and the page the
+    steps counted by hand above."""
+    from es2particles.live.view import LiveView
+    from es2particles.scenes import scene_class
+
+    scene = scene_class(name)()
+    settings = dict(particles=1024, size=(64, 64), steps=0)
+    with Pipeline(gl, scene, **settings) as pipeline:
+        times = iter(np.cumsum([0.0] + CLOCK))
+        view = LiveView(pipeline, clock=lambda: float(next(times)))
+        view.start()
+        window = [view.advance() for _ in CLOCK]
+    page_path = tmp_path / f"{name}.html"
+    write_page(page_plan(scene, **settings), page_path)
+    page = Page(browser, page_path)
+    try:
+        played = page.call(f"play({CLOCK})")
+        steps = page.call("step(0)")
+    finally:
+        page.close()
+    assert window == CLOCK_STEPS[name] and played == CLOCK_STEPS[name]
+    assert steps == sum(CLOCK_STEPS[name])
+
+
 def test_page_names_a_density_path_it_does_not_have(browser, tmp_path):
     page_path = tmp_path / "page.html"
     write_page(page_plan(Clifford(), particles=4096, size=(64, 64)), page_path)

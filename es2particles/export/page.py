@@ -223,6 +223,7 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
             "animation": _animation(plan, frames),
             "samples": [{k: _flat(v) for k, v in row.items()} for row in plan.samples],
             "accumulate": plan.accumulate, "steps_per_frame": steps_per_frame,
+            "clock": plan.clock,
             "rounding": plan.rounding, "resources": resources, "vertices": vertices,
             "stages": stages, "present": plan.present, "present_program": present,
             "programs": programs.sources, "density": density,

@@ -278,6 +278,9 @@ def _reads_state(stage):
 
 # --- the plan -----------------------------------------------------------------------------------
 
+CATCH_UP_STEPS = 4  # steps a frame shown in real time may run to catch up with the clock
+
+
 @dataclass
 class FramePlan:
     """What a frame runs (see the module's docstring). ``graph``: the pass graph's
@@ -317,6 +320,14 @@ class FramePlan:
     layouts: dict = field(default_factory=dict)  # grid name -> its Layout
     animation: object = None
     samples: tuple = ({},)
+    dt: float = None  # the scene's time step (s): a live view or a playing page steps by it
+
+    @property
+    def clock(self):
+        """How a frame shown in real time steps (LiveView, the page playing): the steps the
+        wall time since the last frame is worth at ``dt``, at most ``max_steps`` (beyond that
+        the scene runs slower than real time); without a time step, one step a frame."""
+        return {"dt": self.dt, "max_steps": CATCH_UP_STEPS}
 
     def animation_table(self, frames):
         """The uniforms each of ``frames`` frames sets before its steps, one name -> value
@@ -638,6 +649,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     motion=scene.motion() if rendering.has_camera else None,
                     settings={"seed": seed, "share": settings.share},
                     animation=scene.frame_uniforms,
+                    dt=getattr(getattr(scene, "params", None), "dt", None),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
 

@@ -20,7 +20,6 @@ import numpy as np
 from ..errors import ParameterError
 from .controls import Bindings, ViewCamera, dragged_centre, hit_sphere
 
-MAX_STEPS = 4  # steps a drawn frame may run to catch up with the clock
 
 
 class LiveView:
@@ -28,11 +27,13 @@ class LiveView:
     (default: the standard keys); ``clock``: seconds, monotonic (a test may pass its own);
     ``paused``: start paused (the first frame stays until a key steps or plays it)."""
 
-    def __init__(self, pipeline, bindings=None, max_steps=MAX_STEPS, clock=time.perf_counter,
+    def __init__(self, pipeline, bindings=None, max_steps=None, clock=time.perf_counter,
                  paused=False):
         self.pipeline, self.scene = pipeline, pipeline.scene
         self.bindings = bindings or Bindings()
-        self.max_steps, self.clock = max_steps, clock
+        rule = pipeline.plan.clock  # the page's executor keeps the same
+        self.max_steps = rule["max_steps"] if max_steps is None else max_steps
+        self.clock = clock
         start = pipeline.camera(0, 1)
         self.view = None if start is None else ViewCamera(start)
         self.grip = self.scene.grip()
@@ -46,7 +47,7 @@ class LiveView:
             self.values.setdefault(control.uniform, [float(v) for v in
                                                      np.ravel(stage.uniforms[control.uniform])])
         self.selected = 0
-        self.dt = getattr(getattr(self.scene, "params", None), "dt", None)
+        self.dt = rule["dt"]
         self.paused, self.quit = paused, False
         self.screenshots = 0  # requests for a screenshot, taken by whoever shows the view
         self._drag = None

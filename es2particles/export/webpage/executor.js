@@ -816,12 +816,27 @@
     return out;
   }
 
-  // The next frame of the run, as Pipeline.frames makes it: its uniforms, its steps, its draw.
-  function nextFrame() {
+  // The next frame of the run, as Pipeline.frames makes it: its uniforms, its steps (the run's
+  // steps per frame, or while playing the clock's), its draw.
+  function nextFrame(steps = plan.steps_per_frame) {
     frameIndex += 1;
     setFrame(frameIndex);
-    for (let i = 0; i < plan.steps_per_frame; i += 1) step();
+    for (let i = 0; i < steps; i += 1) step();
     frame();
+    return steps;
+  }
+
+  // The clock of a playing page, as a live window keeps it (LiveView.advance, the plan's
+  // clock): the steps the seconds since the last frame are worth at the scene's time step, at
+  // most max_steps; a scene without a time step steps once a frame.
+  let debt = 0;
+  function stepsFor(elapsed) {
+    const { dt, max_steps: most } = plan.clock;
+    if (dt === null) return 1;
+    debt += elapsed;
+    const steps = Math.min(Math.floor(debt / dt), most);
+    debt = Math.min(debt - steps * dt, dt);
+    return steps;
   }
 
   // -- the page: warm-up, then play; buttons, sliders and the mouse --------------------------------
@@ -898,9 +913,12 @@
 
   let frames = 0;
   let since = performance.now();
+  let last = null;
   function tick(now) {
+    const elapsed = last === null ? 0 : (now - last) / 1000;
+    last = now;
     if (playing) {
-      nextFrame();
+      nextFrame(stepsFor(elapsed));
       frames += 1;
       if (now - since > 1000) {
         show("frames a second", (1000 * frames / (now - since)).toFixed(1));
@@ -921,6 +939,13 @@
       for (let i = 0; i < n; i += 1) nextFrame();
       gl.finish();
       return frameIndex;
+    },
+    // Frames played after each of these many seconds of the clock (tests pass their own):
+    // the steps each ran.
+    play(seconds) {
+      const steps = seconds.map((elapsed) => nextFrame(stepsFor(elapsed)));
+      gl.finish();
+      return steps;
     },
     // Run n steps, drawing a frame after the last; returns the steps done so far.
     step(n = 1) {

@@ -186,7 +186,7 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
                  "frame_uniforms": {k: [spec[0], *map(_json_number, spec[1:])]
                                     for k, spec in stage.frame_uniforms.items()},
                  "repeat": [{k: _flat(v) for k, v in r.items()} for r in stage.repeat],
-                 "per_frame": stage.per_frame, "swap": stage.swap,
+                 "per_frame": stage.per_frame, "swap": stage.swap, "samples": stage.samples,
                  "loop": list(stage.loop) if stage.loop else None}
         # The numbers of the camera the page starts with, as EGL computes them, so the first
         # frames are the EGL run's (the page's own float64 arithmetic may round a last bit the
@@ -218,11 +218,11 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
             "layout": {"count": layout.count, "width": layout.width, "height": layout.height},
             "size": list(plan.size), "steps": plan.steps, "seed": plan.settings["seed"],
             # What a frame or a sample changes, as the plan tables it (FramePlan's animation
-            # and samples): the uniforms each frame sets before its steps, and each of the
-            # accumulate samples' uniforms (sample 0 first).
+            # and samples): the uniforms each frame sets before its steps, and each
+            # accumulated sample's uniforms (sample 0 first; a stage's samples draws them).
             "animation": _animation(plan, frames),
             "samples": [{k: _flat(v) for k, v in row.items()} for row in plan.samples],
-            "accumulate": plan.accumulate, "steps_per_frame": steps_per_frame,
+            "steps_per_frame": steps_per_frame,
             "clock": plan.clock,
             "rounding": plan.rounding, "resources": resources, "vertices": vertices,
             "stages": stages, "present": plan.present, "present_program": present,

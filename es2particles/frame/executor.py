@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import Es2ParticlesError, ParameterError, ShaderError
+from ..gl.bindings import uniform_value
 from ..gl.command import DrawCommand
 from .motion import model_uniform
 from .plan import frame_value
@@ -240,13 +241,29 @@ class Executor:
         self.steps_done += 1
 
     def render(self, frame=None, stages=None):
-        """Run the frame's stages (or ``stages``) in order for ``frame`` (a :class:`Frame`);
-        returns the presented texture."""
+        """Run the frame's stages (or ``stages``) in order for ``frame`` (a :class:`Frame`),
+        each of its ``samples`` (an accumulating stage: a step with the sample's uniforms before
+        each draw after the first, the plain frame's set again after); returns the presented
+        texture. The one place a frame is drawn: Pipeline, its live views and the cluster's
+        shares draw through it, and the page's executor.js mirrors it."""
         self._use()
         frame = self.frame() if frame is None else frame
         for stage in self.plan.frame_stages if stages is None else stages:
             self.run(stage, frame)
+            for sample in range(1, stage.samples):
+                self.set_uniforms(self.plan.samples[sample])
+                self.step()
+                self.run(stage, self.frame(frame.camera), clear=False)
+            if stage.samples > 1:
+                self.set_uniforms(self.plan.samples[0])  # the next frame starts as a plain one
         return self.front(self.plan.present) if self.plan.present else None
+
+    def set_uniforms(self, values):
+        """Set simulation uniforms (name -> value, as the pass graph declares them) on every
+        stage that declares each: a step's pass takes its interface's form."""
+        for name, value in values.items():
+            self.set_uniform(name, value, lambda stage, v, name=name: uniform_value(
+                name, v, stage.interface.uniforms[name]) if stage.step else v)
 
     def set_uniform(self, name, value, convert=None):
         """Set uniform ``name`` on every stage that declares it among its own uniforms

@@ -138,14 +138,15 @@ class Pipeline:
             scene.initialise(self.sim, SeededRandom(seed if not self.share
                                                     else (seed, self.share)))
             if self.share:
-                self._sample(0, step=False)  # the share's own first grid
+                self._set(self.plan.samples[0])  # the share's own first grid
         except Exception:
             self.release()
             raise
         self.final = self._read = None
         # Points drawn from texels read back each frame keep texel order (the read is in it).
         points = [s for s in self.plan.frame_stages if s.kind == "points"]
-        self._ordered = not scene.positions_repeat or any(s.attributes for s in points)
+        self._ordered = (not points or not scene.positions_repeat
+                         or any(s.attributes for s in points))
         self._drawn = False  # a first frame was drawn: ordering pays from the second one on
         # Sprites drawn straight to the picture: the first frame checks that one lit a pixel
         # (where the device draws: a recording device's pictures are empty).
@@ -219,12 +220,8 @@ class Pipeline:
         env = self.executor.frame(camera or self.camera(frame, frames), model)
         self._read = None
         bare = self._draw_without_sprites(env) if self._unlit_check is not None else None
-        for stage in self.plan.frame_stages:
-            if stage.kind == "points":
-                self._density(stage, env)
-            else:
-                self.executor.run(stage, env)
-        self.final = self.executor.front(self.plan.present)
+        self._order_points()
+        self.final = self.executor.render(env)
         if bare is not None:
             self._unlit_check = None
             self._read = read_rgb(self.ctx, self.final)  # image() gives it: one read a frame
@@ -251,30 +248,22 @@ class Pipeline:
     def density(self):
         """Draw this step's density (and, accumulating, the next ``accumulate - 1`` steps') into
         the density target, without the post stages; returns the density texture."""
-        self._density(self.plan.stage("points"), self.executor.frame())
+        self._use()
+        self._order_points()
+        self.executor.render(self.executor.frame(), [self.plan.stage("points")])
         return self.executor.front("density")
 
-    def _density(self, stage, env):
+    def _order_points(self):
+        """Points drawn in tile order from the second frame on: positions repeat from frame to
+        frame, so the order pays its readback and sort (~75 ms at 2^20) back over the frames
+        that follow; a still, which draws once, is spared them (see render/points.py)."""
         if self._drawn and not self._ordered:
-            # Once, before the second frame: positions repeat from frame to frame, so a draw in
-            # tile order pays its readback and sort (~75 ms at 2^20) back over the frames that
-            # follow; a still, which draws once, is spared them (see render/points.py).
+            stage = self.plan.stage("points")
             order = tile_order(self.sim.download("position"), self.plan.rendering.view,
                                self.size)
             self.executor.write_vertices(stage.vertices, self.sim.layout.texel_uv()[order])
             self._ordered = True
         self._drawn = True
-        self.executor.run(stage, env)
-        for sample in range(1, self.accumulate):
-            self._sample(sample)
-            self.executor.run(stage, self.executor.frame(env.camera), clear=False)
-        if self.accumulate > 1:
-            self._sample(0, step=False)  # the next frame starts as a plain one would
-
-    def _sample(self, sample, step=True):
-        self._set(self.plan.samples[sample])
-        if step:
-            self.sim.step()
 
     def _set(self, uniforms):
         """Set a frame's or a sample's uniforms (the plan's tables) on the simulation."""

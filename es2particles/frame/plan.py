@@ -174,7 +174,8 @@ class Stage:
     every step) rather than a stage of the frame. ``swap``: its target's pair swaps right after
     it (the last draw of a write of a versioned quantity: the next read sees it). ``loop``:
     (name, count) of the repeat it belongs to: consecutive stages of one loop run ``count``
-    times in a row."""
+    times in a row. ``samples``: draws summed into its target a frame (accumulation): after the
+    first, each follows a step of its own with that sample's uniforms (FramePlan.samples)."""
 
     name: str
     kind: str
@@ -200,6 +201,7 @@ class Stage:
     step: bool = False
     swap: bool = False
     loop: tuple = None
+    samples: int = 1
     what: str = ""
 
     @property

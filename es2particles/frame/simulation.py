@@ -11,7 +11,6 @@ sets the step number and draws, pass by pass, and swaps the ping-pong buffers at
 import numpy as np
 
 from ..errors import Es2ParticlesError, ParameterError, check_range
-from ..gl.bindings import uniform_value
 from .executor import Executor
 from .plan import plan_graph
 from .settings import check_rounding
@@ -137,8 +136,7 @@ class Simulation:
         if name not in known:
             raise ParameterError(f"no pass of this graph declares a uniform {name!r} (declared: "
                                  f"{', '.join(sorted(known)) or 'none'})")
-        self.executor.set_uniform(name, value, lambda stage, v: uniform_value(
-            name, v, stage.interface.uniforms[name]) if stage.step else v)
+        self.executor.set_uniforms({name: value})
 
     def set_uniforms(self, values):
         """Set several uniforms (each as :meth:`set_uniform`)."""

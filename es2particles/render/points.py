@@ -147,7 +147,7 @@ class Density(Rendering):
             state=DrawState(blend="add", point_size=True),
             uniforms={**own, "u_colour": (intensity * scale,) * 4},
             generated=generated_values(interface, layout), clear=(0.0, 0.0, 0.0, 0.0),
-            slice=draw_slice,
+            slice=draw_slice, samples=b.accumulate,
             what=f"{layout.count} points of {point_size:g} pixel{'s' * (point_size != 1)}, "
                  f"{how}"))
         mean = layout.count * intensity * scale / (w * h) * b.accumulate

@@ -735,16 +735,16 @@
     }
   }
 
-  // The density of a frame: its accumulate samples, each after a step of its own (sample 0's
-  // was the frame's), summed into one target, as Pipeline._density draws them.
+  // The density of a frame: its stage's samples, each after a step of its own (sample 0's was
+  // the frame's), summed into one target, as Executor.render draws them.
   function drawDensity(stage) {
     drawSample(stage, true);
-    for (let s = 1; s < plan.accumulate; s += 1) {
+    for (let s = 1; s < stage.samples; s += 1) {
       setSample(s);
       step();
       drawSample(stage, false);
     }
-    if (plan.accumulate > 1) setSample(0);  // the next frame starts as a plain one would
+    if (stage.samples > 1) setSample(0);  // the next frame starts as a plain one would
     return null;
   }
 

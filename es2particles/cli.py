@@ -509,11 +509,15 @@ def run_of(args):
 
 
 def _check_animation(run):
+    """What moves over an animation's frames does nothing on a still: refused in one line."""
     from .errors import ParameterError
 
     if run.frames == 1 and run.options.get("animate_to") is not None:
         raise ParameterError("--animate-to animates over an animation's frames: give --frames "
                              "F (2 or more) with it; a still has none")
+    if run.frames == 1 and run.options.get("camera") == "orbit":
+        raise ParameterError("--camera orbit circles the target over an animation's frames: "
+                             "give --frames F (2 or more) with it; a still has one camera")
 
 
 def _number(text, option):
@@ -547,6 +551,8 @@ def _export(args):
     out = check_output(args.out, "--out", {".html": "HTML"})
     run = run_of(args)
     _check_animation(run)
+    if run.options.get("camera") == "orbit":
+        raise ParameterError("--camera orbit: a page's camera is the mouse's (drag to orbit)")
     plan = page_plan(run.check(), run.settings, frames=run.frames,
                      steps_per_frame=run.steps_per_frame)
     write_page(plan, out)

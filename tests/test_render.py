@@ -77,3 +77,32 @@ def test_draw_slice_must_be_a_positive_integer(gl, particles):
     for bad in (0, -5, 2.5):
         with pytest.raises(ParameterError, match="draw_slice"):
             Density(VIEW, draw_slice=bad)
+
+
+@pytest.mark.parametrize("intensity", [1.0, 4.0])
+def test_the_tone_map_brightens_with_intensity(gl, intensity):
+    """t = log(1 + e d / m) / log(1 + 256 e), m the density of an even spread at unit intensity
+    (n / pixels) and d the pixel's density, intensity i a hit: grey = t, stored to the nearest
+    code. In float64 from the density's counts, every pixel within one code (float32's log).
+    --intensity did nothing before (m was relative to it, so it cancelled); now it brightens."""
+    from es2particles.frame.pipeline import Pipeline
+    from es2particles.scenes.dejong import DeJong
+
+    n, size, exposure = 2 ** 14, (128, 128), 4.0
+    with Pipeline(gl, DeJong(reseed=True), n, size, steps=1, bloom=None, gradient=None,
+                  intensity=intensity, exposure=exposure) as pipeline:
+        next(pipeline.frames(1))
+        image = pipeline.image()
+        d = np.frombuffer(pipeline.executor.read("density"), np.float32).reshape(128, 128, -1)
+        d = d[::-1, :, 0].astype(np.float64)  # top row first, as the image
+    hits = d / intensity
+    assert np.array_equal(hits, np.round(hits)) and hits.sum() == n  # i per hit, every point
+    t = np.clip(np.log1p(exposure * d / (n / (128 * 128))) / np.log1p(exposure * 256), 0, 1)
+    expected = np.round(t * 255)
+    for k in range(3):
+        assert np.abs(image[..., k] - expected).max() <= 1
+    if intensity > 1:  # brighter than unit intensity's picture where anything landed
+        unit = np.round(np.clip(np.log1p(exposure * hits / (n / (128 * 128)))
+                                / np.log1p(exposure * 256), 0, 1) * 255)
+        lit = hits > 0
+        assert (image[..., 0][lit] > unit[lit]).mean() > 0.9

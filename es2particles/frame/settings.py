@@ -153,7 +153,8 @@ SETTINGS = {d.name: d for d in (
     _setting("point_size", None, 1.0, MAX_POINT_SIZE, unit="pixels",
              help="point or sprite diameter (a sprite's at the camera distance where its "
                   "attenuation is 1, in an image 1024 high)"),
-    _setting("intensity", 1.0, 0.0, MAX_INTENSITY, help="density each particle adds"),
+    _setting("intensity", 1.0, 0.0, MAX_INTENSITY,
+             help="density each particle adds: brightens the tone-mapped picture"),
     _setting("exposure", 4.0, 1e-3, 1e3, help="tone curve brightness"),
     _setting("gradient", "inferno", text=True, metavar="RAMP",
              help="gradient map: a ramp name (inferno, ice, viridis, gold, grey), colours "

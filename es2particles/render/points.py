@@ -150,7 +150,9 @@ class Density(Rendering):
             slice=draw_slice, samples=b.accumulate,
             what=f"{layout.count} points of {point_size:g} pixel{'s' * (point_size != 1)}, "
                  f"{how}"))
-        mean = layout.count * intensity * scale / (w * h) * b.accumulate
+        # The tone map's reference: the density of an even spread at unit intensity, so that
+        # --intensity brightens (relative to the density's own mean it cancelled out).
+        mean = layout.count * scale / (w * h) * b.accumulate
         return plan_post(b, "density", mean, b.setting("exposure", 4.0),
                          b.setting("gradient", "inferno"), b.setting("bloom", Bloom()),
                          self.background)

@@ -106,6 +106,13 @@ class Collision3DParams(EmitterParams):
     def check(self):
         super().check()
         parse_field_format(self.field_format)
+        declared = self.declarations()
+        if self.shadows == "off" and declared["shadows"].option:
+            moved = [d.flag_name for n, d in declared.items() if n in ("lamp", "lamp_angle")
+                     and d.option and getattr(self, n) != d.default]
+            if moved:
+                raise ParameterError(f"{moved[0]}: the lamp lights only the chapter's shadows; "
+                                     "give --shadows on with it")
         r = self.emitter_radius
         if np.any(np.abs(np.asarray(self.emitter)[[0, 2]]) + r > FLOOR_HALF) or \
                 not 0.0 <= self.emitter[1] <= HEIGHT:

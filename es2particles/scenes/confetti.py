@@ -40,6 +40,12 @@ class ConfettiParams(Collision3DParams):
     buffer_scale: float = param(1.0, option=False, help="unused: quads are opaque")
     upsample: str = param("bilateral", choices=("bilateral",), option=False,
                           help="unused: quads are opaque")
+    # A quad is cut from paper by its shape and lit, not a sprite's texture: no sprite, blend
+    # or size law (each was listed and did nothing).
+    sprite: str = param("disc", text=True, option=False, help="unused: quads are cut, not textured")
+    blend: str = param("over", choices=("over",), option=False, help="unused: quads are opaque")
+    size_law: str = param("perspective", choices=("perspective",), option=False,
+                          help="unused: a quad's size is its paper's")
 
     def check(self):
         super().check()

@@ -102,6 +102,15 @@ class EmitterParams(Params):
                                  f"--dt), got {lo:g},{hi:g}")
         if np.allclose(self.eye, self.target):
             raise ParameterError("--eye and --target must differ")
+        # Options that act only beside another: each given without it is refused in one line
+        # (it did nothing).
+        declared = self.declarations()
+        if self.scene_depth != declared["scene_depth"].default and self.soft == 0:
+            raise ParameterError("--scene-depth: only soft sprites read the scene's distance; "
+                                 "give --soft D (above 0) with it")
+        if self.upsample != declared["upsample"].default and self.buffer_scale == 1:
+            raise ParameterError("--upsample: only a sprite buffer smaller than the picture "
+                                 "comes back over it; give --buffer-scale below 1 with it")
 
 
 class Emitter(Scene):

@@ -7,6 +7,7 @@ it reads below it."""
 
 from dataclasses import dataclass
 
+from ..errors import ParameterError
 from ..frame.settings import Defaults
 from ..params import param
 from ..render.meshes import box, crate_texture, floor
@@ -24,6 +25,12 @@ class FountainParams(PointEmitterParams):
                        help="kill: die through the floor, to be emitted again (the seed)")
     bounce: float = param(0.5, 0.0, 1.0, help="the share of speed a floor bounce keeps")
     max_speed: float = param(12.0, 0.1, 100.0, unit="m/s", help="the velocity range's bound")
+
+    def check(self):
+        super().check()
+        if self.floor == "kill" and self.bounce != self.declarations()["bounce"].default:
+            raise ParameterError("--bounce: particles bounce only off --floor bounce (the "
+                                 "default floor kills them); give it with it")
 
 
 class Fountain(PointEmitting):

@@ -1,7 +1,8 @@
 #version 100
 // Density to colour: a log curve, so sparse and dense regions both show, then the gradient map.
 // t = log(1 + exposure d / mean) / log(1 + exposure * HEADROOM), with mean the density of a pixel
-// if every particle landed evenly; the ramp texture maps t to a colour (GRADIENT) or grey.
+// if every particle landed evenly at unit intensity (so --intensity brightens); the ramp texture
+// maps t to a colour (GRADIENT) or grey.
 // DENSITY_COUNTS: the density is a whole count in three bytes of an RGBA8 texture (a WebGL page
 // with no blendable float target: density/add.frag), each count worth u_unit.
 precision highp float;
@@ -9,7 +10,7 @@ precision highp sampler2D;
 
 varying vec2 v_uv;
 uniform sampler2D u_density;
-uniform float u_mean;      // particles * intensity / pixels
+uniform float u_mean;      // particles / pixels: a particle of intensity i adds i
 uniform float u_exposure;
 #ifdef GRADIENT
 uniform sampler2D u_ramp;  // 256 x 1, linear filtering

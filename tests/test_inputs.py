@@ -401,6 +401,12 @@ def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
                "--particles", "1024", "--size", "64x64", "--steps", "3",
                "--out", str(out / "wind.png")]
     seen = {}
+    starts = []
+    for _ in range(3):
+        began = time.monotonic()
+        subprocess.run([sys.executable, "-c", "import es2particles.cli"], check=True)
+        starts.append(time.monotonic() - began)
+    start_bound = max(0.5, 3 * sorted(starts)[1])
     for k, (delay, sent) in enumerate([(i * 0.01, signal.SIGTERM) for i in range(100)]
                                       + [(i * 0.05, signal.SIGINT) for i in range(20)]):
         started = time.monotonic()
@@ -420,8 +426,9 @@ def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):
                    and "/es2particles/" not in err)
         assert code in (130, 0, -sent) or in_site, where
         if code == -sent or in_site:  # only before the package's own code runs
-            # (~80 ms here warm; a cold start under load took longer, so the bound is loose)
-            assert delay < 0.5 and list(out.iterdir()) == [], where
+            # (~80 ms here warm; a start under the whole suite's load took over 0.5 s, so the
+            # bound follows this machine's start now: three times the package's import)
+            assert delay < start_bound and list(out.iterdir()) == [], (where, start_bound)
             continue
         left = sorted(p.name for p in out.iterdir())
         if code == 130:

@@ -13,8 +13,8 @@ from argparse import Namespace
 from dataclasses import dataclass, field, replace
 
 from .errors import ParameterError, check_range
-from .io.nesting import check_nesting
 from .frame.settings import FrameSettings
+from .io.nesting import check_nesting
 
 MAX_FRAMES = 100000
 MAX_STEPS_PER_FRAME = 10 ** 6
@@ -231,7 +231,6 @@ def _toml_loads(text):
         return tomllib.loads(text)
     except RecursionError:
         raise ValueError("nested too deep to read") from None
-
 
 
 def toml_dumps(data):

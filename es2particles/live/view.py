@@ -21,7 +21,6 @@ from ..errors import ParameterError
 from .controls import Bindings, ViewCamera, dragged_centre, hit_sphere
 
 
-
 class LiveView:
     """``pipeline`` run live. ``bindings``: a :class:`~es2particles.live.controls.Bindings`
     (default: the standard keys); ``clock``: seconds, monotonic (a test may pass its own);

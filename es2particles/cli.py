@@ -555,6 +555,9 @@ def _export(args):
         raise ParameterError("--camera orbit: a page's camera is the mouse's (drag to orbit)")
     plan = page_plan(run.check(), run.settings, frames=run.frames,
                      steps_per_frame=run.steps_per_frame)
+    if run.frames > 1 and not plan["animation"]:
+        raise ParameterError("--frames: nothing of this page moves over an animation's frames "
+                             "(give --animate-to); a page plays until paused")
     write_page(plan, out)
     passes = sum(1 for s in plan["stages"] if s["step"])
     print(f"wrote {out} ({out.stat().st_size / 2 ** 20:.1f} MiB: {run.scene}, "

@@ -399,6 +399,7 @@ def cli(*args, cwd):
     (["export", "dejong", "--animate-to", "1,2,3,4"], "p.html", "--animate-to animates over"),
     (["export", "dejong", "--size", "5000x5000"], "p.html", "size width"),
     (["export", "dejong", "--fps", "24"], "p.html", "--fps: a page plays at the browser's"),
+    (["export", "collision", "--frames", "3"], "p.html", "--frames: nothing of this page moves"),
     (["export", "dejong", "--save-state", "s.npz"], "p.html", "--save-state: a page's state"),
     (["export", "dejong", "--load-state", "s.npz"], "p.html", "--load-state: a page starts"),
     (["export", "dejong", "--save-config", "r.toml"], "p.html", "--save-config: export writes"),

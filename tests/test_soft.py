@@ -103,8 +103,10 @@ def sphere_edges(camera, size, centre=(0.0, 1.0, 0.0), radius=1.0, width=2.0):
 def test_a_bilateral_upsample_follows_the_object_s_edge_better(gl):
     """The chapter's smoke look on the 3D collision (puff sprites added, soft over 0.1 m) at
     full resolution, and from a buffer of half the resolution laid back by each upsampler: along
-    the sphere's silhouette the bilateral one strays least from the full-resolution picture, and
-    a smaller buffer draws the sprites in less time."""
+    the sphere's silhouette the bilateral one strays least from the full-resolution picture. The
+    time each takes is printed; whether the smaller buffer is faster is the benchmarks' question
+    (`bench.py`'s upsample section): on an H200 the half buffer drew no faster, its fixed cost
+    is most of it."""
     size = (480, 270)
     look = dict(sprite="puff", blend="add", soft=0.1)
 
@@ -132,4 +134,3 @@ def test_a_bilateral_upsample_follows_the_object_s_edge_better(gl):
               f"{diff[~edges].mean():.2f}; sprites {half_time * 1e3:.1f} ms against "
               f"{full_time * 1e3:.1f} at full resolution")
     assert errors["bilateral"] < errors["bilinear"] < errors["nearest"]
-    assert half_time < full_time

@@ -22,6 +22,12 @@ pass and the quantity; ``plan`` shows each pass's versions.
 
 Quantities live on the particles or on a :class:`~es2particles.frame.state.Grid` of their own size
 (:meth:`PassGraph.grid`); a pass runs over the domain of the quantity it writes.
+
+Particles see each other through a *neighbour grid* (:meth:`PassGraph.neighbours`): built in
+the step from a quantity of theirs (sorted by cell, then a table of each cell's first particle:
+``frame/neighbours.py``), read by passes declared with ``neighbours=``, which loop over the
+particles of the cells around a point (``lib/neighbours.glsl``). It is ordered and pruned as a
+pass is: built after what it reads, before what reads it, and left out when nothing does.
 """
 
 from dataclasses import dataclass, field, replace
@@ -32,6 +38,8 @@ import numpy as np
 from ..errors import GraphError, ParameterError, check_range
 from contextlib import contextmanager
 
+from .neighbours import NeighbourGrid
+from .parts import format_bytes  # noqa: F401 (the plan's words; render/points.py imports it here)
 from .state import Grid, Quantity
 
 @dataclass(frozen=True)
@@ -55,6 +63,9 @@ class Pass:
         (see ``bindings.py``), and ``Simulation.set_uniform`` changes them.
     defines : mapping
         ``#define`` lines of this pass's variant: a pass carries all it needs.
+    neighbours : str
+        The neighbour grid (:meth:`PassGraph.neighbours`) whose loop the shader runs
+        (``FOR_EACH_NEIGHBOUR``, ``lib/neighbours.glsl``); the pass runs after the grid is built.
 
     The shader holds only its logic: the graph writes its declarations (``bindings.py``).
     """
@@ -68,6 +79,8 @@ class Pass:
     uniforms: Mapping = field(default_factory=dict)
     defines: Mapping = field(default_factory=dict)
     repeat: str = None  # the PassGraph.repeat group it belongs to
+    neighbours: str = None  # the neighbour grid it reads
+    builds: str = None  # the neighbour grid this node builds (not a shader of its own)
 
     def stage(self, part=0):
         """How errors and plans name draw ``part`` of this pass."""
@@ -79,6 +92,9 @@ class Pass:
             object.__setattr__(self, name, (value,) if isinstance(value, str) else tuple(value))
         object.__setattr__(self, "uniforms", dict(self.uniforms or {}))
         object.__setattr__(self, "defines", dict(self.defines or {}))
+        if self.neighbours is not None and self.neighbours not in self.reads_new:
+            # ordered after the grid's build, as a read of this step's value of it
+            object.__setattr__(self, "reads_new", self.reads_new + (self.neighbours,))
         both = set(self.reads) & set(self.reads_new)
         if both:
             raise GraphError(f"pass {self.name!r} reads {sorted(both)} both as last step's and this "
@@ -109,6 +125,7 @@ class Plan:
     versioned: tuple = ()  # quantities written more than once a step (swapped after each write)
     repeats: dict = field(default_factory=dict)  # name -> Repeat, of the planned passes
     grids: dict = field(default_factory=dict)  # name -> Grid, of the planned quantities
+    neighbours: dict = field(default_factory=dict)  # name -> NeighbourGrid, of those built
 
     def domain_of(self, quantity):
         """The Grid ``quantity`` lives on, or None for the particles."""
@@ -143,7 +160,7 @@ class Plan:
         """(pass, part, parts) of each full-screen draw of a step, in order."""
         out = []
         for p in self.passes:
-            parts = self.quantities[p.writes].parts(fmt)
+            parts = 1 if p.builds else self.quantities[p.writes].parts(fmt)
             out += [(p, part, parts) for part in range(parts)]
         return out
 
@@ -172,11 +189,21 @@ class Plan:
                 lines.append(f"  repeat {r.name}: {r.count} iterations of "
                              f"{', '.join(r.passes)}, ping-ponging")
             open_repeat = p.repeat
+            if p.builds:
+                n = self.neighbours[p.builds]
+                lines.append(f"  {i}. {p.name}: neighbour grid of {n.of} "
+                             f"({'this step' if n.this_step else 'last step'}) over "
+                             f"{n.grid.shape[0]}x{n.grid.shape[1]} cells: a key pass, a sort "
+                             f"by cell, a table of each cell's first particle")
+                continue
             mine, written = versions[p.name]
             reads = [f"{q} (last step)" if q not in mine else f"{q} ({version(mine[q])})"
                      for q in p.reads]
             reads += [f"{q} (this step)" if q not in mine else f"{q} ({version(mine[q])})"
-                      for q in p.reads_new]
+                      for q in p.reads_new if q != p.neighbours]
+            if p.neighbours:
+                reads.append(f"neighbours {p.neighbours} (at most "
+                             f"{self.neighbours[p.neighbours].bound} a row of 3 cells)")
             reads += [f"texture {t}" for t in p.textures]
             q = self.quantities[p.writes]
             what = p.writes
@@ -231,13 +258,6 @@ class Plan:
         return "\n".join(self.describe())
 
 
-def format_bytes(n):
-    for unit in ("bytes", "KiB", "MiB", "GiB"):
-        if n < 1024 or unit == "GiB":
-            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.3g} {unit}"
-        n /= 1024
-
-
 class PassGraph:
     """Quantities and the passes that write them; :meth:`plan` decides what a step runs."""
 
@@ -247,6 +267,7 @@ class PassGraph:
         self.textures = {}
         self.grids = {}
         self.repeats = {}
+        self.neighbour_grids = {}
         self.notes = []  # lines for the printed plan (a fallback taken, say)
         self._repeating = None  # the Repeat being declared (inside ``with g.repeat(...)``)
 
@@ -278,6 +299,38 @@ class PassGraph:
         self.quantities[name] = Quantity(name, lo, hi, components, storage, domain)
         return self.quantities[name]
 
+    def neighbours(self, name, of, cell, box=None, bound=64, this_step=False):
+        """Declare neighbour grid ``name``: square cells of side ``cell`` over ``box`` ((x0, y0),
+        (x1, y1); default the range of ``of``, grown to whole cells) holding the particles by
+        the cell of their quantity ``of`` (2 components, on the particles), last step's value,
+        or this step's (``this_step``: built after ``of``'s writers). A pass declared with
+        ``neighbours=name`` visits, for a point, the particles of the 3 x 3 cells around it:
+        every particle within ``cell`` of the point, and others (test the distance). A point
+        outside the box takes the nearest cell, as particles outside it are held: the search
+        stays exact. ``bound``: the most particles a pass's loop visits in a row of 3 cells
+        (GLSL ES 1.00 loops have constant bounds); a row holding more is an error when checked
+        (:meth:`~es2particles.frame.simulation.Simulation.check_neighbours`). Returns the
+        :class:`~es2particles.frame.neighbours.NeighbourGrid`."""
+        if name in self.neighbour_grids or name in self.quantities:
+            raise GraphError(f"neighbour grid {name!r} is declared twice" if name in
+                             self.neighbour_grids else f"neighbour grid {name!r}: a quantity "
+                             "has that name")
+        source = self.quantities.get(of)
+        if source is None or source.domain is not None or source.components != 2:
+            raise GraphError(f"neighbour grid {name!r}: 'of' must be a declared quantity of 2 "
+                             f"components on the particles, got {of!r}"
+                             + ("" if source is None else f" ({source.components} components"
+                                f"{', on grid ' + source.domain.name if source.domain else ''})"))
+        n = NeighbourGrid.over(name, source, cell, box, bound, this_step)
+        self.grid(name, n.grid.shape, n.grid.box)
+        self.neighbour_grids[name] = n
+        # The grid's build is a node of the graph: it "writes" the table (a quantity only to the
+        # graph's ordering, left out of the plan's quantities) and reads what it keys.
+        self.quantities[name] = Quantity(name, 0.0, 1.0, 1, domain=self.grids[name])
+        self.add_pass(Pass(name, "(neighbour grid)", name, reads=() if this_step else (of,),
+                           reads_new=(of,) if this_step else (), builds=name))
+        return n
+
     def texture(self, name, data):
         """Declare a scene texture: ``data`` is an (h, w, 4) uint8, float16 or float32 array (a
         collision field, a ramp; stored RGBA8, RGBA16F or RGBA32F), or :class:`~es2particles.gl.astc.Compressed` blocks. The simulation uploads
@@ -301,10 +354,14 @@ class PassGraph:
         return data
 
     def add(self, name, frag, writes, reads=(), reads_new=(), textures=(), uniforms=None,
-            defines=None):
+            defines=None, neighbours=None):
         """Add a :class:`Pass` built from these arguments (see :class:`Pass`); returns it."""
+        if neighbours is not None and neighbours not in self.neighbour_grids:
+            raise GraphError(f"pass {name!r} reads neighbour grid {neighbours!r}, which is not "
+                             f"declared (neighbour grids: "
+                             f"{', '.join(self.neighbour_grids) or 'none'}; PassGraph.neighbours)")
         return self.add_pass(Pass(name, frag, writes, reads, reads_new, textures, uniforms or {},
-                                  defines or {}))
+                                  defines or {}, neighbours=neighbours))
 
     def add_pass(self, new):
         """Add a :class:`Pass` (to the repeat being declared, inside ``with repeat()``);
@@ -370,7 +427,7 @@ class PassGraph:
     def plan(self, outputs=None):
         """The :class:`Plan` computing ``outputs`` (default: every written quantity)."""
         if outputs is None:
-            outputs = list(dict.fromkeys(p.writes for p in self.passes))
+            outputs = list(dict.fromkeys(p.writes for p in self.passes if not p.builds))
         outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)  # one name or several
         if not outputs:
             raise ParameterError("outputs must name at least one quantity")
@@ -386,8 +443,9 @@ class PassGraph:
         used = {p.writes for p in ordered}
         versioned = self.versioned() & used
         last_step = {q for p in ordered for q in p.reads}
+        built = {q for q in used if q in self.neighbour_grids}
         buffers = {q: (2 if q in last_step or q in versioned else 1)
-                   for q in self.quantities if q in used}
+                   for q in self.quantities if q in used and q not in built}
         sampled = {t for p in ordered for t in p.textures}
         planned = {p.repeat for p in ordered if p.repeat}
         return Plan(
@@ -396,13 +454,16 @@ class PassGraph:
             buffers=buffers,
             outputs=outputs,
             left_out_passes=[p for p in self.passes if p.name not in needed],
-            left_out_quantities=[q for q in self.quantities if q not in buffers],
+            left_out_quantities=[q for q in self.quantities if q not in buffers
+                                 and q not in self.neighbour_grids],
             textures={t: data for t, data in self.textures.items() if t in sampled},
             left_out_textures=[t for t in self.textures if t not in sampled],
             versioned=tuple(q for q in self.quantities if q in versioned),
             repeats={n: r for n, r in self.repeats.items() if n in planned},
             grids={g: grid for g, grid in self.grids.items()
-                   if any(self.quantities[q].domain is grid for q in buffers)},
+                   if g not in self.neighbour_grids
+                   and any(self.quantities[q].domain is grid for q in buffers)},
+            neighbours={n: self.neighbour_grids[n] for n in self.neighbour_grids if n in built},
         )
 
     def uniform_names(self):
@@ -414,7 +475,13 @@ class PassGraph:
             if p.writes not in self.quantities:
                 raise GraphError(f"pass {p.name!r} writes {p.writes!r}, which is not a declared "
                                  "quantity")
+            if p.writes in self.neighbour_grids and not p.builds:
+                raise GraphError(f"pass {p.name!r} writes {p.writes!r}, a neighbour grid: the "
+                                 "step builds it; passes read it with neighbours=")
             for q in p.reads + p.reads_new:
+                if q in self.neighbour_grids and q != p.neighbours:
+                    raise GraphError(f"pass {p.name!r} reads neighbour grid {q!r} as a "
+                                     f"quantity: declare it with neighbours={q!r}")
                 if q not in self.quantities:
                     raise GraphError(f"pass {p.name!r} reads {q!r}, which is not a declared "
                                      "quantity")

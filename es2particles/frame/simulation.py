@@ -161,6 +161,34 @@ class Simulation:
         return [int(np.count_nonzero((values[:, k] <= lo[k]) | (values[:, k] >= hi[k])))
                 for k in range(q.components)]
 
+    def neighbour_table(self, name):
+        """Neighbour grid ``name``'s table after the last step: each cell's first slot in the
+        order sorted by cell, (H, W) int64, row 0 at the bottom (a cell's particles are its
+        slots up to the next cell's first; the last cell's end at the particle count)."""
+        from ..gl.context import numpy_dtype
+        from .neighbours import decode_table
+
+        self._use()
+        if name not in self.plan.neighbours:
+            raise ParameterError(f"neighbour grid {name!r} is not in this simulation's plan "
+                                 f"(has: {', '.join(self.plan.neighbours) or 'none'})")
+        r = self.executor.plan.resources[name]
+        texels = np.frombuffer(self.executor.read(name), numpy_dtype(r.format)).reshape(-1, 4)
+        w, h = self.plan.neighbours[name].grid.shape
+        return decode_table(texels, r.format).reshape(h, w)
+
+    def check_neighbours(self):
+        """{grid: the most particles a loop's row of 3 cells held} of each neighbour grid after
+        the last step; raises :class:`~es2particles.errors.GraphError` where a row held more
+        than the grid's bound (its loops would have missed some). ``run`` checks after its
+        steps; a caller stepping by hand checks when it likes (each check reads the tables
+        back)."""
+        from .neighbours import check_rows
+
+        return {name: check_rows(n, self.neighbour_table(name).ravel(), self.count,
+                                 self.steps_done)
+                for name, n in self.plan.neighbours.items()}
+
     def step(self):
         """Run every planned draw once, then make this step's values the front ones."""
         self._use()
@@ -171,6 +199,8 @@ class Simulation:
         steps = int(check_range("steps", steps, 0, None, integer=True))
         for _ in range(steps):
             self.step()
+        if steps and self.plan.neighbours:
+            self.check_neighbours()
 
     def describe(self):
         """The plan as lines, with this simulation's format and texture sizes."""

@@ -255,8 +255,10 @@ def generated_values(interface, layout):
             "u_count": float(layout.count)}
 
 
-def pass_interface(spec, quantities, fmt, part=0):
-    """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`)."""
+def pass_interface(spec, quantities, fmt, part=0, neighbours=None):
+    """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`);
+    ``neighbours``: (lines, samplers, fixed uniforms) of the neighbour grid it reads
+    (``frame/neighbours.py``: interface_lines), declared before ``lib/neighbours.glsl``."""
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     grid = quantities[spec.writes].domain
@@ -272,7 +274,20 @@ def pass_interface(spec, quantities, fmt, part=0):
     for name in spec.reads:
         _reader(out, quantities[name], fmt, False, READ_SALTS["pass"])
     for name in spec.reads_new:
-        _reader(out, quantities[name], fmt, True, READ_SALTS["pass"])
+        if name != spec.neighbours:
+            _reader(out, quantities[name], fmt, True, READ_SALTS["pass"])
+    if spec.neighbours is not None:
+        if neighbours is None:
+            raise GraphError(f"pass {spec.name!r} reads neighbour grid {spec.neighbours!r}, "
+                             "which the plan did not build")
+        lines, samplers, fixed = neighbours
+        out.lines += lines
+        _fixed(out, fixed, f"neighbour grid {spec.neighbours!r}")
+        for sampler, source in samplers.items():
+            out.declare(f"uniform sampler2D {sampler};", sampler,
+                        f"neighbour grid {spec.neighbours!r}")
+            out.samplers[sampler] = source
+        out.lines.append('#include "lib/neighbours.glsl"')
     for name in spec.textures:
         out.declare(f"uniform sampler2D u_{name};", f"u_{name}", f"texture {name!r}")
         out.samplers[f"u_{name}"] = ("texture", name)
@@ -281,15 +296,17 @@ def pass_interface(spec, quantities, fmt, part=0):
     return out
 
 
-def stage_interface(reads, quantities, fmt, uniforms=None, attributes=False):
+def stage_interface(reads, quantities, fmt, uniforms=None, attributes=False, this_step=False):
     """The interface of a vertex stage that reads quantities at a texel (a renderer): by vertex
-    texture fetch, or with ``attributes`` from the texels read back into vertex buffers."""
+    texture fetch, or with ``attributes`` from the texels read back into vertex buffers.
+    ``this_step``: the reads are of this step's values (a stage of the step that follows their
+    writers: a neighbour grid's key pass)."""
     out = Interface(lines=list(PRELUDE), owners=dict(BUILT_IN))
     for name in reads:
         if attributes:
             _attribute_reader(out, quantities[name], fmt)
         else:
-            _reader(out, quantities[name], fmt, False, READ_SALTS["draw"])
+            _reader(out, quantities[name], fmt, this_step, READ_SALTS["draw"])
     _own_uniforms(out, uniforms or {})
     return out
 

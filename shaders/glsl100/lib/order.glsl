@@ -54,6 +54,17 @@ float order_index(vec4 texel)
 #endif
 }
 
+// The key a slot's texel holds (an RGBA8 key is an integer in [0, ORDER_KEY_MAX]).
+float order_key(vec4 texel)
+{
+#ifdef ORDER_FLOAT
+    return texel.x;
+#else
+    vec2 word = order_words(texel);
+    return floor(word.x / ORDER_HIGH_MOD) * (65536.0 / ORDER_LOW_MOD) + floor(word.y / ORDER_LOW_MOD);
+#endif
+}
+
 // The texel of a slot holding (key, index); an RGBA8 key is an integer in [0, ORDER_KEY_MAX].
 vec4 order_encode(float key, float index)
 {

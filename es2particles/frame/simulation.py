@@ -203,8 +203,9 @@ class Simulation:
             self.check_neighbours()
 
     def describe(self):
-        """The plan as lines, with this simulation's format and texture sizes."""
-        return self.plan.describe(self.fmt, self.layout)
+        """The plan as lines, with this simulation's format and texture sizes, and what its
+        neighbour grids cost."""
+        return self.plan.describe(self.fmt, self.layout) + list(self.executor.plan.notes)
 
     def release(self):
         """Release the state and scene textures (programs stay cached in the context); safe

@@ -8,7 +8,9 @@ start-up included, against the numpy + pillow script, alternately, and where its
 ``--repeats 5``, ``--quick`` (2^16 and 2^18 only, no host-memory soak); ``--scenes fountain``
 adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pixels, both
 blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
-shadow map, whole frames with and without each part), ``--scenes accumulate`` the image noise of
+shadow map, whole frames with and without each part), ``--scenes boids`` the boids step at
+2^12 to 2^16 against its neighbour grid's build and a numpy step over a k-d tree's pairs,
+``--scenes accumulate`` the image noise of
 ``--accumulate K`` against a float64 reference of 10^9 samples (10^8 with ``--quick``), ours and
 numpy, by samples and by time. It prints tables and writes
 them as Markdown to ``out/bench/bench.md``.
@@ -380,6 +382,73 @@ def upsample_section(ctx, repeats, emit):
             diff = np.abs(image - reference).mean(axis=2)
             emit(f"| {scale:g} | {upsample} | {diff[edges].mean():.2f} | "
                  f"{diff[~edges].mean():.2f} | {fmt_ms(t)} | {1 - t[0] / full[0]:.0%} |")
+
+
+def boids_numpy_step(x, v, p):
+    """The boids step in numpy (float64): scipy's k-d tree finds the pairs within the largest
+    radius, the three rules sum over them with bincount; the same rules as boids.frag."""
+    from scipy.spatial import cKDTree
+
+    rs, ra, rc = p.radii
+    ws, wa, wc = p.weights
+    lo, hi = p.speed
+    pairs = cKDTree(x).query_pairs(max(p.radii), output_type="ndarray")
+    i, j = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
+    d = x[j] - x[i]
+    r = np.linalg.norm(d, axis=1)
+    n = len(x)
+
+    def total(mask, values):
+        return np.stack([np.bincount(i[mask], values[mask, k], n) for k in range(2)], 1)
+
+    sep = (r < rs) & (r > 0)
+    away = -total(sep, d / np.where(sep, r * r, 1.0)[:, None])
+    count_a = np.bincount(i[r < ra], minlength=n)[:, None]
+    count_c = np.bincount(i[r < rc], minlength=n)[:, None]
+    steer = ws * away * rs
+    steer += np.where(count_a > 0, wa * (total(r < ra, v[j]) / np.maximum(count_a, 1) - v), 0.0)
+    steer += np.where(count_c > 0, wc * total(r < rc, d) / np.maximum(count_c, 1) / rc * hi, 0.0)
+    box = np.asarray(p.box, float)
+    wall = (x <= rc).astype(float) - (x >= box - rc).astype(float)
+    v = v + p.dt * (steer + wall * hi / max(rc, p.dt * hi))
+    s = np.linalg.norm(v, axis=1, keepdims=True)
+    v = v / s * np.clip(s, lo, hi)
+    return np.clip(x + p.dt * v, 0.0, box), v
+
+
+def boids_section(ctx, sizes, repeats, emit):
+    """The boids step (a neighbour grid: key pass, sort by cell, cell table; then the rules'
+    pass over 3 rows of cells, and the position pass) at the default density (16,384 boids in a
+    4 x 4 box, the box grown with N), against the neighbour grid's build alone and a numpy step
+    whose pairs come from scipy's k-d tree."""
+    from es2particles.frame.simulation import Simulation
+    from es2particles.scenes.boids import Boids
+
+    emit("| N | step ms (min-max) | grid build ms | build share | numpy + k-d tree ms | "
+         "numpy/ours |")
+    emit("|---|---|---|---|---|---|")
+    growth = []
+    for log2n in sizes:
+        count = 2 ** log2n
+        side = 4.0 * (count / 2 ** 14) ** 0.5
+        scene = Boids(box=(side, side))
+        with Simulation(ctx, scene.graph(ctx.caps), count) as sim:
+            scene.initialise(sim, np.random.default_rng(1))
+            sim.run(20)
+            step = timed(sim.step, repeats, ctx.finish)
+            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
+                                                        "neighbour table")]
+            frame = sim.executor.frame()
+            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            x, v = sim.download("position"), sim.download("velocity")
+        peer = timed(lambda: boids_numpy_step(x, v, scene.params), repeats)
+        growth.append((count, step[0]))
+        emit(f"| 2^{log2n} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f}) | "
+             f"{grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | {peer[0] * 1e3:.1f} | "
+             f"{peer[0] / step[0]:.2f} |")
+    if len(growth) >= 2:
+        counts, times = zip(*growth)
+        emit(f"Scaling of the boids step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
 
 
 def smoke_section(ctx, sizes, repeats, emit):
@@ -759,6 +828,9 @@ def main(argv=None):
             if scene == "confetti":
                 confetti_section(ctx, [12, 14] if args.quick else [12, 14, 16, 18],
                                  args.repeats, emit)
+                continue
+            if scene == "boids":
+                boids_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit)
                 continue
             if scene == "smoke":
                 smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],

@@ -136,7 +136,7 @@ def test_a_broken_plug_in_is_named_and_left_out(tmp_path):
                              "installed_scenes; print(sorted(installed_scenes()))"],
                             capture_output=True, text=True, env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert "['clifford', 'collision', 'collision3d', 'confetti', 'dejong', 'fountain', " \
-           "'smoke', 'wind']" in result.stdout
+    assert "['boids', 'clifford', 'collision', 'collision3d', 'confetti', 'dejong', " \
+           "'fountain', 'liquid', 'smoke', 'wind']" in result.stdout
     assert "scene 'broken' (no_such_module:X) could not be loaded: ModuleNotFoundError" in \
         result.stderr

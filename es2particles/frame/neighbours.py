@@ -189,5 +189,5 @@ def check_rows(n, first, count, step):
         j, i = np.unravel_index(int(rows.argmax()), rows.shape)
         raise GraphError(f"neighbour grid {n.name!r}: the cells around ({i}, {j}) hold {worst} "
                          f"particles in a row of 3 after step {step}, more than the {n.bound} "
-                         "its loops visit (bound=): raise the bound, or use smaller cells")
+                         "its loops visit: raise its bound (a scene's --bound), or use smaller cells")
     return worst

@@ -305,13 +305,14 @@ class Pipeline:
         from ..io.output import save_arrays
 
         arrays = {name: values for name, values in self.state().items()}
+        arrays.update(self.scene.derived(dict(arrays), self.sim.count))
         for name, buffer in self.sim.buffers.items():
             for part, texels in enumerate(np.moveaxis(buffer.read_texels(), 1, 0)):
                 arrays[f"texels.{name}.{part}"] = texels
         meta = {"scene": self.scene.name, "particles": self.sim.count, "format": self.sim.fmt,
                 "steps_done": self.sim.steps_done,
                 "quantities": {n: b.parts for n, b in self.sim.buffers.items()}}
-        dt = getattr(getattr(self.scene, "params", None), "dt", None)
+        dt = self.plan.dt
         if isinstance(dt, float):  # the simulated time, where the scene steps by a dt
             meta["time"] = self.sim.steps_done * dt
         arrays["meta"] = np.array(json.dumps(meta))

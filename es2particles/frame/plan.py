@@ -467,7 +467,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     steps = int(check_range("steps", b.setting("steps", defaults.steps), 0, MAX_STEPS,
                             integer=True))
     seed = b.setting("seed", 0)
-    graph = scene_graph(scene, caps)
+    graph = scene_graph(scene, caps, b.setting("particles", defaults.particles))
     rendering.check_reads(scene, graph)
     b.size = size
     outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
@@ -485,21 +485,24 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     motion=scene.motion() if rendering.has_camera else None,
                     settings={"seed": seed, "share": settings.share},
                     animation=scene.frame_uniforms,
-                    dt=getattr(getattr(scene, "params", None), "dt", None),
+                    dt=scene.time_step(b.setting("particles", defaults.particles)),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
 
 
-def scene_graph(scene, caps):
+def scene_graph(scene, caps, count=None):
     """``scene.graph(caps)``; a plug-in scene whose ``graph()`` takes no capabilities is called
-    without them."""
+    without them, and a scene whose ``graph`` takes ``count`` (a length that follows the
+    particle count: the liquid's h) gets the run's."""
     import inspect
 
     try:
-        takes = len(inspect.signature(scene.graph).parameters) > 0
+        parameters = inspect.signature(scene.graph).parameters
     except (TypeError, ValueError):
-        takes = True
-    return scene.graph(caps) if takes else scene.graph()
+        return scene.graph(caps)
+    if "count" in parameters:
+        return scene.graph(caps, count=count)
+    return scene.graph(caps) if parameters else scene.graph()
 
 
 def _cull(stages, present):

@@ -19,16 +19,17 @@ BUILT_IN = {"dejong": "es2particles.scenes.dejong:DeJong",
             "confetti": "es2particles.scenes.confetti:Confetti",
             "smoke": "es2particles.scenes.smoke:Smoke",
             "wind": "es2particles.scenes.wind:Wind",
-            "boids": "es2particles.scenes.boids:Boids"}
+            "boids": "es2particles.scenes.boids:Boids",
+            "liquid": "es2particles.scenes.liquid:Liquid"}
 # What ``from es2particles.scenes import X`` gives (name -> module), imported when first asked for.
 _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene": "base",
             "DeJong": "dejong", "Clifford": "clifford", "Collision": "collision",
             "Fountain": "fountain", "Collision3D": "collision3d", "Confetti": "confetti",
-            "Smoke": "smoke", "Wind": "wind", "Boids": "boids"}
+            "Smoke": "smoke", "Wind": "wind", "Boids": "boids", "Liquid": "liquid"}
 
 # The modules (what pdoc documents); the classes above are reached as attributes.
 __all__ = ["base", "attractor", "dejong", "clifford", "emitter", "collision", "fountain",
-           "collision3d", "confetti", "smoke", "wind", "boids", "field_compression", "installed_scenes",
+           "collision3d", "confetti", "smoke", "wind", "boids", "liquid", "field_compression", "installed_scenes",
            "scene_class",
            "ENTRY_POINT_GROUP", "BUILT_IN"]
 

@@ -205,6 +205,16 @@ class Scene:
         described = self.params.describe() if hasattr(self, "params") else ""
         return [f"parameters: {described}"] if described else []
 
+    def time_step(self, count):
+        """The seconds a step simulates for ``count`` particles (the saved state's time, the
+        live view's clock): the ``dt`` parameter, where the scene has one; else None."""
+        return getattr(getattr(self, "params", None), "dt", None)
+
+    def derived(self, state, count):
+        """Arrays a saved state holds beside the quantities, computed from them in float64
+        (name -> array): none by default."""
+        return {}
+
     def after_run(self, sim):
         """Lines a run says once, at its end, of what its state shows (values held at a range's
         edge, say); none by default."""

@@ -36,7 +36,7 @@ class BoidsParams(Params):
     speed: tuple = param((0.1, 0.3), 0.0, 1e3, count=2, metavar="MIN,MAX",
                          help="the speeds a boid keeps")
     dt: float = param(1 / 30, 1e-5, 1.0, unit="s", help="time step")
-    bound: int = param(512, 1, 2 ** 16, integer=True,
+    bound: int = param(2048, 1, 2 ** 16, integer=True,
                        help="the most boids a loop visits in a row of 3 cells (a run refuses "
                             "a crowded row beyond it)")
 

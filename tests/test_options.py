@@ -19,7 +19,7 @@ from es2particles.frame.settings import COMMON_SETTINGS, SETTINGS
 from es2particles.scenes import scene_class
 
 SCENES = ("dejong", "clifford", "collision", "fountain", "collision3d", "confetti", "smoke",
-          "wind")
+          "wind", "boids", "liquid")
 # A value for each option whose default a rule cannot move (text, a scene's own default).
 VALUES = {
     "--shape": {"collision": "box", "collision3d": "box:0,1,0,1,0.5,1",
@@ -37,6 +37,7 @@ VALUES = {
     "--steps": "37",
     "--seed": "9",
     "--accumulate": "3",
+    "--bound": "1",  # a loop's cap acts where a row of 3 cells holds more: refused
 }
 # Options whose contract is the same picture and state by another path (their own tests
 # compare the paths), or that a still of this size cannot show, each with why.
@@ -44,7 +45,8 @@ SAME_BY_DESIGN = {
     "--vertex-fetch": "the points drawn by another path, pixel for pixel (test_render.py)",
 }
 SMALL = ["--size", "32x32", "--particles", "256"]
-BASE = {"wind": ["--grid", "32x32"]}  # every run of the scene but its option's own
+BASE = {"wind": ["--grid", "32x32"], "boids": ["--steps", "20"],
+        "liquid": ["--steps", "20"]}  # every run of the scene but its option's own
 
 
 def _run(scene, extra, tmp_path):

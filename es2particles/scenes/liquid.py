@@ -80,7 +80,7 @@ class Liquid(Scene):
 
     name = "liquid"
     Params = LiquidParams
-    defaults = Defaults(particles=2 ** 14, point_size=2.0, steps=240)
+    defaults = Defaults(particles=2 ** 14, point_size=4.0, steps=600)
     saves = ("rho",)  # the GPU's own densities, at the predicted positions of the last step
 
     def __init__(self, params=None, **given):
@@ -109,6 +109,12 @@ class Liquid(Scene):
         if h > min(p.box) / 2:
             raise ParameterError(f"the interaction radius h = {h:.4g} is more than half the "
                                  "--box's shorter side: give --radius or more --particles")
+        count = count or self.defaults.particles
+        if np.pi * h * h * count / (w * hb) < 1.0:
+            raise ParameterError(f"the interaction radius h = {h:.4g} gives {count} particles "
+                                 "fewer than one neighbour each even spread over the whole "
+                                 "--box: nothing would hold the liquid together; raise --radius "
+                                 "or --particles")
         g = PassGraph()
         g.quantity("position", (0.0, 0.0), (w, hb))
         g.quantity("velocity", -top, top)

@@ -10,6 +10,7 @@ adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pix
 blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
 shadow map, whole frames with and without each part), ``--scenes boids`` the boids step at
 2^12 to 2^16 against its neighbour grid's build and a numpy step over a k-d tree's pairs,
+``--scenes liquid`` the liquid's step likewise against its grids' builds and numpy,
 ``--scenes accumulate`` the image noise of
 ``--accumulate K`` against a float64 reference of 10^9 samples (10^8 with ``--quick``), ours and
 numpy, by samples and by time. It prints tables and writes
@@ -451,6 +452,79 @@ def boids_section(ctx, sizes, repeats, emit):
         emit(f"Scaling of the boids step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
 
 
+def liquid_numpy_step(x, v, p, h, dt):
+    """The liquid's gather-form step in numpy (float64), its pairs from a numpy cell list
+    (twins/neighbours.py): the same formulas as liquid.frag."""
+    from es2particles.scenes.liquid import GATHER_SHARE
+    from es2particles.twins.neighbours import pairs_within
+
+    n = len(x)
+
+    def both(points):
+        i, j, r = pairs_within(points, h)
+        return np.concatenate([i, j]), np.concatenate([j, i]), np.concatenate([r, r])
+
+    def total(i, values):
+        return np.stack([np.bincount(i, values[:, k], n) for k in range(2)], 1)
+
+    i, j, r = both(x)
+    apart = r > 0
+    i, j, r = i[apart], j[apart], r[apart]
+    unit = (x[j] - x[i]) / r[:, None]
+    u = ((v[i] - v[j]) * unit).sum(axis=1)
+    sigma, beta = p.viscosity
+    strength = np.where(u > 0, dt * (1 - r / h) * (sigma * u + beta * u * u), 0.0)
+    v1 = v + dt * np.asarray(p.gravity) - 0.5 * total(i, strength[:, None] * unit)
+    xs = x + dt * v1
+    i, j, r = both(xs)
+    a = 1 - r / h
+    rho, near = np.bincount(i, a * a, n), np.bincount(i, a ** 3, n)
+    apart = r > 0
+    i, j, r, a = i[apart], j[apart], r[apart], a[apart]
+    pressure = p.stiffness * h * (rho[i] + rho[j] - 2 * p.rest_density) * a \
+        + p.near_stiffness * h * (near[i] + near[j]) * a * a
+    x2 = xs - GATHER_SHARE * 0.5 * dt * dt * total(i, (pressure / r)[:, None] * (xs[j] - xs[i]))
+    ox, oy, radius = p.obstacle
+    c = x2 - (ox, oy)
+    rc = np.hypot(c[:, 0], c[:, 1])
+    inside = rc < radius
+    x2[inside] = (ox, oy) + c[inside] / rc[inside, None] * radius
+    x2 = np.clip(x2, 0.0, np.asarray(p.box, float))
+    return x2, v1 + (x2 - xs) / dt
+
+
+def liquid_section(ctx, sizes, repeats, emit):
+    """The liquid's step (two neighbour grids, viscosity, prediction, densities, relaxation,
+    velocity) mid dam break, against its two grids' builds and the same step in numpy."""
+    from es2particles.frame.simulation import Simulation
+    from es2particles.scenes.liquid import Liquid
+
+    emit("| N | step ms (min-max) | grid builds ms | build share | numpy ms | numpy/ours |")
+    emit("|---|---|---|---|---|---|")
+    growth = []
+    for log2n in sizes:
+        count = 2 ** log2n
+        scene = Liquid()
+        with Simulation(ctx, scene.graph(ctx.caps, count=count), count) as sim:
+            scene.initialise(sim, np.random.default_rng(1))
+            sim.run(30)
+            step = timed(sim.step, repeats, ctx.finish)
+            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
+                                                        "neighbour table")]
+            frame = sim.executor.frame()
+            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            x, v = sim.download("position"), sim.download("velocity")
+        h, dt = scene.radius_for(count), scene.dt_for(count)
+        peer = timed(lambda: liquid_numpy_step(x, v, scene.params, h, dt), repeats)
+        growth.append((count, step[0]))
+        emit(f"| 2^{log2n} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f}) | "
+             f"{grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | {peer[0] * 1e3:.1f} | "
+             f"{peer[0] / step[0]:.2f} |")
+    if len(growth) >= 2:
+        counts, times = zip(*growth)
+        emit(f"Scaling of the liquid step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
+
+
 def smoke_section(ctx, sizes, repeats, emit):
     """The smoke: its step (acceleration, velocity, position, life), the back-to-front sort (key
     pass + the whole odd-even merge network, or 8 passes of it spread over frames) against the
@@ -828,6 +902,9 @@ def main(argv=None):
             if scene == "confetti":
                 confetti_section(ctx, [12, 14] if args.quick else [12, 14, 16, 18],
                                  args.repeats, emit)
+                continue
+            if scene == "liquid":
+                liquid_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit)
                 continue
             if scene == "boids":
                 boids_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit)

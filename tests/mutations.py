@@ -69,6 +69,12 @@ TRIG = "shaders/glsl100/lib/trig.glsl"
 ATTRACTOR = "shaders/glsl100/lib/attractor.glsl"
 MERGE = "shaders/glsl100/sort/merge.frag"
 KEY = "shaders/glsl100/sort/key.frag"
+NKEY = "shaders/glsl100/neighbours/key.frag"
+NTABLE = "shaders/glsl100/neighbours/table.frag"
+NLIB = "shaders/glsl100/lib/neighbours.glsl"
+ORDER = "shaders/glsl100/lib/order.glsl"
+BOIDS = "shaders/glsl100/boids/boids.frag"
+LIQUID = "shaders/glsl100/liquid/liquid.frag"
 WIND = "shaders/glsl100/wind/fluid.frag"
 
 MUTATIONS = (
@@ -257,13 +263,95 @@ MUTATIONS = (
              ((WIND, ": kind == WALL_NOSLIP ? -value : 2.0 * speed - value;",
                ": -value;"),),
              ("tests/test_wind.py",)),
+    # --- neighbour grids ------------------------------------------------------------------------
+    Mutation("neighbour-cells-transposed", "neighbours",
+             "the key numbers cells column by column: a row's three cells are no longer a run",
+             ((NKEY, "slot = order_encode(cell.y * u_neighbour_size.x + cell.x, index);",
+               "slot = order_encode(cell.x * u_neighbour_size.y + cell.y, index);"),),
+             ("tests/test_neighbours.py",)),
+    Mutation("neighbour-search-past-the-cell", "neighbours",
+             "the table's search finds the first slot after its cell, not the first in it",
+             ((NTABLE, "if (key_at(mid) < c) {", "if (key_at(mid) <= c) {"),),
+             ("tests/test_neighbours.py",)),
+    Mutation("neighbour-right-column-missed", "neighbours",
+             "a row's run stops at the point's own column",
+             ((NLIB, "float x1 = min(c.x + 1.0, u_neighbour_size.x - 1.0);",
+               "float x1 = min(c.x, u_neighbour_size.x - 1.0);"),),
+             ("tests/test_neighbours.py",)),
+    Mutation("neighbour-rows-shifted", "neighbours", "the three rows visited start at the point's own",
+             ((NLIB, "float y = c.y + float(row) - 1.0;", "float y = c.y + float(row);"),),
+             ("tests/test_neighbours.py",)),
+    Mutation("neighbour-slot-counted-at-mediump", "neighbours",
+             "the slot counted as float(k): llvmpipe converts a mediump int at half precision",
+             ((NLIB, "    float slot = neighbour_slot;\n",
+               "    float slot = neighbour_run.x + float(k);\n"),),
+             ("tests/test_neighbours.py",)),
+    Mutation("neighbour-key-low-bits-lost", "neighbours",
+             "an RGBA8 key read without the bits in the low half of its word",
+             ((ORDER, "return floor(word.x / ORDER_HIGH_MOD) * (65536.0 / ORDER_LOW_MOD) + "
+                      "floor(word.y / ORDER_LOW_MOD);",
+               "return floor(word.x / ORDER_HIGH_MOD) * (65536.0 / ORDER_LOW_MOD);"),),
+             ("tests/test_neighbours.py::test_the_table_holds_each_cells_first_slot_in_rgba8",)),
+    Mutation("neighbour-bound-check-doubled", "neighbours",
+             "the row check lets rows of up to twice the bound through",
+             (("es2particles/frame/neighbours.py", "    if worst > n.bound:",
+               "    if worst > 2 * n.bound:"),),
+             ("tests/test_neighbours.py",)),
+    # --- boids ------------------------------------------------------------------------------------
+    Mutation("boids-separation-attracts", "boids", "separation pulls toward the nearest",
+             ((BOIDS, "away -= d / (r * r);", "away += d / (r * r);"),),
+             ("tests/test_boids.py",)),
+    Mutation("boids-alignment-absolute", "boids",
+             "alignment steers by the neighbours' mean velocity, not its difference from its own",
+             ((BOIDS, "steer += u_weights.y * (heading.xy / heading.z - v);",
+               "steer += u_weights.y * (heading.xy / heading.z);"),),
+             ("tests/test_boids.py",)),
+    Mutation("boids-walls-inverted", "boids", "the walls' turn pushes toward the wall",
+             ((BOIDS, "vec2 wall = step(x, vec2(u_radii.z)) - step(u_box - vec2(u_radii.z), x);",
+               "vec2 wall = step(u_box - vec2(u_radii.z), x) - step(x, vec2(u_radii.z));"),),
+             ("tests/test_boids.py",)),
+    Mutation("boids-no-minimum-speed", "boids", "the speed held only below the maximum",
+             ((BOIDS, "clamp(s, u_speed.x, u_speed.y)", "clamp(s, 0.0, u_speed.y)"),),
+             ("tests/test_boids.py",)),
+    Mutation("boids-half-step", "boids", "the position moves half a step's velocity",
+             ((BOIDS, "clamp(x + u_dt * read_velocity(v_uv), vec2(0.0), u_box)",
+               "clamp(x + 0.5 * u_dt * read_velocity(v_uv), vec2(0.0), u_box)"),),
+             ("tests/test_boids.py",)),
+    # --- liquid ------------------------------------------------------------------------------------
+    Mutation("liquid-viscosity-pushes", "liquid", "the viscosity impulse added, not taken away",
+             ((LIQUID, "write_velocity(v + u_dt * u_gravity - 0.5 * impulse);",
+               "write_velocity(v + u_dt * u_gravity + 0.5 * impulse);"),),
+             ("tests/test_liquid.py",)),
+    Mutation("liquid-density-linear", "liquid", "the density sums (1 - q), not (1 - q)^2",
+             ((LIQUID, "rho += vec2(a * a, a * a * a);", "rho += vec2(a, a * a * a);"),),
+             ("tests/test_liquid.py",)),
+    Mutation("liquid-rest-density-once", "liquid",
+             "the pair's pressure takes rho0 once for two particles' densities",
+             ((LIQUID, "(rho.x - 2.0 * u_rest)", "(rho.x - u_rest)"),),
+             ("tests/test_liquid.py",)),
+    Mutation("liquid-velocity-times-dt", "liquid",
+             "the velocity's correction multiplied by dt, not divided",
+             ((LIQUID, "(read_position(v_uv) - read_predicted(v_uv)) / u_dt",
+               "(read_position(v_uv) - read_predicted(v_uv)) * u_dt"),),
+             ("tests/test_liquid.py",)),
+    Mutation("liquid-obstacle-half", "liquid", "the obstacle holds out only half its radius",
+             ((LIQUID, "if (r < u_obstacle.z) {", "if (r < 0.5 * u_obstacle.z) {"),),
+             ("tests/test_liquid.py",)),
+    Mutation("liquid-saved-density-cubed", "liquid",
+             "the saved state's density recomputed with (1 - q)^3",
+             (("es2particles/twins/neighbours.py", "    density = np.bincount(i, a ** 2, n) + "
+               "np.bincount(j, a ** 2, n)",
+               "    density = np.bincount(i, a ** 3, n) + np.bincount(j, a ** 2, n)"),),
+             ("tests/test_liquid.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
 # named bugs first, chosen to fit CI's time.
 CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", "entry-carry-sign",
              "curl-sign", "merge-keeps-larger", "life-ends-a-step-late",
-             "iterations-not-ping-ponged", "wind-divergence-sign")
+             "iterations-not-ping-ponged", "wind-divergence-sign",
+             "neighbour-search-past-the-cell", "boids-separation-attracts",
+             "liquid-density-linear")
 
 
 def make_copy(folder):

@@ -183,10 +183,12 @@ def _note_sparse(pipeline):
     if "density" not in pipeline.plan.resources:
         return
     per_pixel = pipeline.sim.count / (pipeline.size[0] * pipeline.size[1])
-    if per_pixel < 0.25:
-        print(f"es2particles: note: {pipeline.sim.count} particles on {pipeline.size[0]}x"
-              f"{pipeline.size[1]} pixels is {per_pixel:.2g} a pixel: the picture will be "
-              "sparse; raise --particles (or --point-size)", file=sys.stderr)
+    point = float(pipeline.settings.get("point_size", pipeline.scene.defaults.point_size))
+    if per_pixel * point * point < 0.25:  # the share of the pixels the points could cover
+        print(f"es2particles: note: {pipeline.sim.count} particles of {point:g} pixels on "
+              f"{pipeline.size[0]}x{pipeline.size[1]} pixels cover at most "
+              f"{per_pixel * point * point:.2g} of them: the picture will be sparse; raise "
+              "--particles (or --point-size)", file=sys.stderr)
 
 
 def _note_static_animation(run, frames):

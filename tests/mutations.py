@@ -75,6 +75,7 @@ NLIB = "shaders/glsl100/lib/neighbours.glsl"
 ORDER = "shaders/glsl100/lib/order.glsl"
 BOIDS = "shaders/glsl100/boids/boids.frag"
 LIQUID = "shaders/glsl100/liquid/liquid.frag"
+SPH = "shaders/glsl100/sph/sph.frag"
 WIND = "shaders/glsl100/wind/fluid.frag"
 
 MUTATIONS = (
@@ -343,6 +344,32 @@ MUTATIONS = (
                "np.bincount(j, a ** 2, n)",
                "    density = np.bincount(i, a ** 3, n) + np.bincount(j, a ** 2, n)"),),
              ("tests/test_liquid.py",)),
+    # --- sph -------------------------------------------------------------------------------------
+    Mutation("sph-kernel-twice", "sph", "the kernel normalised as 7 / (2 pi h^2): every density doubled",
+             ((SPH, "return 7.0 / (4.0 * PI * u_h * u_h) * t * t * t * t * (2.0 * q + 1.0);",
+               "return 7.0 / (2.0 * PI * u_h * u_h) * t * t * t * t * (2.0 * q + 1.0);"),),
+             ("tests/test_sph.py",)),
+    Mutation("sph-tait-exponent-six", "sph", "the Tait equation's exponent 6, not 7",
+             ((SPH, "return u_fluid.y * (s2 * s2 * s2 * s - 1.0);",
+               "return u_fluid.y * (s2 * s2 * s2 - 1.0);"),),
+             ("tests/test_sph.py",)),
+    Mutation("sph-viscosity-sign", "sph", "the artificial viscosity pulls approaching pairs together",
+             ((SPH, "term -= u_viscosity * u_fluid.z * mu / (0.5 * (rho + rho_j));",
+               "term += u_viscosity * u_fluid.z * mu / (0.5 * (rho + rho_j));"),),
+             ("tests/test_sph.py",)),
+    Mutation("sph-wall-passes", "sph", "a wall keeps the outward velocity instead of turning it",
+             ((SPH, "        v.y *= -u_restitution;", "        v.y *= u_restitution;"),),
+             ("tests/test_sph.py",)),
+    Mutation("sph-pressure-attracts", "sph", "the pressure gradient's sign flipped",
+             ((SPH, "a -= u_mass * term * kernel_slope(r) * d / r;",
+               "a += u_mass * term * kernel_slope(r) * d / r;"),),
+             ("tests/test_sph.py",)),
+    Mutation("sph-saved-density-without-itself", "sph",
+             "the saved state's density leaves each particle's own weight out",
+             (("es2particles/scenes/sph.py",
+               "np.bincount(i, w, n) + np.bincount(j, w, n) + self_weight",
+               "np.bincount(i, w, n) + np.bincount(j, w, n)"),),
+             ("tests/test_sph.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's

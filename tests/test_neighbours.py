@@ -139,10 +139,13 @@ def test_the_table_holds_each_cells_first_slot_in_rgba8(gl, tmp_path):
 
 
 def test_a_row_holding_more_than_the_bound_is_an_error_naming_it(gl, tmp_path):
-    points = np.full((300, 2), 0.5)
-    with pytest.raises(GraphError, match=r"neighbour grid 'cells': .* hold 300 particles in a "
+    """65 particles at one point against a bound of 64: refused, naming the grid; 64 pass, and
+    each sees all 64."""
+    with pytest.raises(GraphError, match=r"neighbour grid 'cells': .* hold 65 particles in a "
                                          r"row of 3 after step 1, more than the 64"):
-        found(gl, graph(tmp_path, 1 / 64), points)
+        found(gl, graph(tmp_path, 1 / 64), np.full((65, 2), 0.5))
+    got, worst, _ = found(gl, graph(tmp_path, 1 / 64), np.full((64, 2), 0.5))
+    assert worst == 64 and np.all(got[:, 0] == 64)
 
 
 def test_the_plan_states_the_grid_its_bound_and_cost(tmp_path):

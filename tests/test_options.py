@@ -19,7 +19,7 @@ from es2particles.frame.settings import COMMON_SETTINGS, SETTINGS
 from es2particles.scenes import scene_class
 
 SCENES = ("dejong", "clifford", "collision", "fountain", "collision3d", "confetti", "smoke",
-          "wind", "boids", "liquid")
+          "wind", "boids", "liquid", "sph")
 # A value for each option whose default a rule cannot move (text, a scene's own default).
 VALUES = {
     "--shape": {"collision": "box", "collision3d": "box:0,1,0,1,0.5,1",
@@ -46,7 +46,8 @@ SAME_BY_DESIGN = {
 }
 SMALL = ["--size", "32x32", "--particles", "256"]
 BASE = {"wind": ["--grid", "32x32"], "boids": ["--steps", "20"],
-        "liquid": ["--steps", "20"]}  # every run of the scene but its option's own
+        "liquid": ["--steps", "20"],
+        "sph": ["--spacing", "0.1", "--steps", "300"]}  # every run but its option's own
 
 
 def _run(scene, extra, tmp_path):
@@ -56,7 +57,8 @@ def _run(scene, extra, tmp_path):
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         base = [w for w in BASE.get(scene, []) if not extra or extra[0] != BASE[scene][0]]
-        code = main(["run", scene, *SMALL, *base, *extra, "--out", str(out), "--save-state",
+        small = SMALL[:2] if scene == "sph" else SMALL  # its count follows --spacing
+        code = main(["run", scene, *small, *base, *extra, "--out", str(out), "--save-state",
                      str(state)])
     if code:
         return code, err.getvalue(), None

@@ -49,7 +49,7 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
 STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^17", "2"),
           "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "confetti": ("2^13", None),
           "smoke": ("2^15", "16"), "wind": ("2^20", "1"), "boids": ("2^14", "2"),
-          "liquid": ("2^14", "4")}
+          "liquid": ("2^14", "4"), "sph": ("3200", "2")}
 
 
 @pytest.mark.parametrize("name", BUILT_IN)

@@ -1,0 +1,95 @@
+#version 100
+// Weakly compressible SPH (es2particles/scenes/sph.py), 2D, SI units, one define a pass:
+// - DENSITY: rho_i = sum_j m W(r_ij), itself included (the Wendland C2 kernel, support 2h);
+// - ACCELERATION: the velocity after dt of
+//     a_i = g - sum_j m (p_i / rho_i^2 + p_j / rho_j^2 + Pi_ij) grad W(r_ij),
+//   p = B ((rho / rho0)^7 - 1) (Tait), Pi_ij Monaghan's artificial viscosity for approaching
+//   pairs; a wall within the box's edge turns the velocity's normal part back by u_restitution;
+// - POSITION: x + dt v, held in the box.
+
+const float PI = 3.141592653589793;
+
+#ifdef NEIGHBOUR_BOUND
+bool other_one(vec2 other)  // not this particle itself
+{
+    return floor(other * u_neighbour_state_size) != floor(v_uv * u_neighbour_state_size);
+}
+
+// Wendland C2 in 2D, support 2h: W(q) = 7 / (4 pi h^2) (1 - q/2)^4 (2q + 1), q = r / h.
+float kernel(float r)
+{
+    float q = r / u_h;
+    if (q >= 2.0) {
+        return 0.0;
+    }
+    float t = 1.0 - 0.5 * q;
+    return 7.0 / (4.0 * PI * u_h * u_h) * t * t * t * t * (2.0 * q + 1.0);
+}
+
+// dW/dr: -35 / (4 pi h^3) q (1 - q/2)^3.
+float kernel_slope(float r)
+{
+    float q = r / u_h;
+    if (q >= 2.0) {
+        return 0.0;
+    }
+    float t = 1.0 - 0.5 * q;
+    return -35.0 / (4.0 * PI * u_h * u_h * u_h) * q * t * t * t;
+}
+
+#endif
+
+#ifdef ACCELERATION
+float pressure(float rho)
+{
+    float s = rho / u_fluid.x;
+    float s2 = s * s;
+    return u_fluid.y * (s2 * s2 * s2 * s - 1.0);
+}
+#endif
+
+void main()
+{
+    vec2 x = read_position(v_uv);
+#ifdef DENSITY
+    float rho = 0.0;
+    vec2 other;
+    FOR_EACH_NEIGHBOUR(x, other) {
+        rho += u_mass * kernel(length(read_position(other) - x));
+    }
+    write_rho(rho);
+#endif
+#ifdef ACCELERATION
+    vec2 v = read_velocity(v_uv);
+    float rho = read_rho(v_uv);
+    float own = pressure(rho) / (rho * rho);
+    vec2 a = u_gravity;
+    vec2 other;
+    FOR_EACH_NEIGHBOUR(x, other) {
+        vec2 d = x - read_position(other);  // from j to i
+        float r = length(d);
+        if (r > 0.0 && r < 2.0 * u_h && other_one(other)) {
+            float rho_j = read_rho(other);
+            float term = own + pressure(rho_j) / (rho_j * rho_j);
+            float approach = dot(v - read_velocity(other), d);
+            if (approach < 0.0) {  // Monaghan: -alpha c0 h mu / mean rho
+                float mu = u_h * approach / (r * r + 0.01 * u_h * u_h);
+                term -= u_viscosity * u_fluid.z * mu / (0.5 * (rho + rho_j));
+            }
+            a -= u_mass * term * kernel_slope(r) * d / r;
+        }
+    }
+    v += u_dt * a;
+    // walls: a particle at or beyond an edge, moving out, turns back
+    if ((x.x <= 0.0 && v.x < 0.0) || (x.x >= u_box.x && v.x > 0.0)) {
+        v.x *= -u_restitution;
+    }
+    if ((x.y <= 0.0 && v.y < 0.0) || (x.y >= u_box.y && v.y > 0.0)) {
+        v.y *= -u_restitution;
+    }
+    write_velocity(v);
+#endif
+#ifdef POSITION
+    write_position(clamp(x + u_dt * read_velocity(v_uv), vec2(0.0), u_box));
+#endif
+}

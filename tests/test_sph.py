@@ -31,7 +31,7 @@ def step_all_pairs(x, v, p):
     d = x[:, None, :] - x[None, :, :]  # d[i, j] = x_i - x_j
     r = np.linalg.norm(d, axis=2)
     rho = (m * wendland(r, h)).sum(axis=1)
-    pressure = RHO0 * c0 * c0 / 7 * ((rho / RHO0) ** 7 - 1)
+    pressure = np.maximum(RHO0 * c0 * c0 / 7 * ((rho / RHO0) ** 7 - 1), 0.0)
     term = (pressure / rho ** 2)[:, None] + (pressure / rho ** 2)[None, :]
     approach = ((v[:, None, :] - v[None, :, :]) * d).sum(axis=2)
     mu = h * approach / (r * r + 0.01 * h * h)
@@ -78,8 +78,9 @@ def test_a_step_is_the_equations_over_every_pair(gl):
 
 @pytest.mark.slow
 def test_the_dam_break_front_runs_below_ritter_s_bound(gl, tmp_path):
-    """The column of 1 x 2 m (spacing 5 cm) released: density stays within 5% of water's, the
-    front leaves the column and runs ahead, but never faster than Ritter's ideal dam break,
+    """The column of 1 x 2 m (spacing 5 cm) released: the front leaves the column and runs ahead, but never faster than Ritter's ideal dam break, and
+    the deep water (below 0.5 m, in the column's first 0.8 m, a spacing off the walls) keeps
+    its density within 5%;
     x = a + 2 sqrt(g H) t, a closed form with no friction and no vertical acceleration."""
     from es2particles.cli import main
 
@@ -95,7 +96,10 @@ def test_the_dam_break_front_runs_below_ritter_s_bound(gl, tmp_path):
     ritter = p.column[0] + 2 * np.sqrt(G * p.column[1]) * t
     assert p.column[0] + 0.5 < front < ritter, (front, ritter)
     density = saved["density"][:, 0]
-    inside = saved["position"][:, 1] < 0.5  # away from the free surface's deficit
+    x, y = saved["position"].T
+    # deep water, a spacing off the walls: at a wall or the free surface a summed density lacks
+    # the neighbours beyond it (the walls have no particles of their own) and reads lower
+    inside = (y < 0.5) & (x < 0.8) & (x > 0.05) & (y > 0.05)
     assert np.abs(density[inside] / RHO0 - 1).max() < 0.05
 
 

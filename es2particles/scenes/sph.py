@@ -4,7 +4,9 @@
 
 A step: each particle's density by summation (the Wendland C2 kernel, support 2h, h = 1.3
 ``--spacing``), the acceleration from the Tait pressure p = B ((rho / rho0)^7 - 1) (B = rho0
-c0^2 / 7, c0 = 10 sqrt(g H): density varies by about 1%) and Monaghan's artificial viscosity,
+c0^2 / 7, c0 = 10 sqrt(g H): density varies by about 1%), held at 0 or above (a free surface's
+particles lack neighbours, their summed density falls below rho0, and the tension that gives
+pulls them into chains and voids: the first runs showed them) and Monaghan's artificial viscosity,
 symplectic Euler, and walls that turn a particle's outward velocity back. The time step follows
 the CFL condition, dt = 0.25 h / c0, unless ``--dt`` gives one. One neighbour grid a step, cells
 of the support 2h. The water's particles start on a square lattice of ``--spacing``; their count

@@ -3,7 +3,7 @@
 // - DENSITY: rho_i = sum_j m W(r_ij), itself included (the Wendland C2 kernel, support 2h);
 // - ACCELERATION: the velocity after dt of
 //     a_i = g - sum_j m (p_i / rho_i^2 + p_j / rho_j^2 + Pi_ij) grad W(r_ij),
-//   p = B ((rho / rho0)^7 - 1) (Tait), Pi_ij Monaghan's artificial viscosity for approaching
+//   p = max(B ((rho / rho0)^7 - 1), 0) (Tait, without tension), Pi_ij Monaghan's artificial viscosity for approaching
 //   pairs; a wall within the box's edge turns the velocity's normal part back by u_restitution;
 // - POSITION: x + dt v, held in the box.
 
@@ -44,7 +44,7 @@ float pressure(float rho)
 {
     float s = rho / u_fluid.x;
     float s2 = s * s;
-    return u_fluid.y * (s2 * s2 * s2 * s - 1.0);
+    return max(u_fluid.y * (s2 * s2 * s2 * s - 1.0), 0.0);  // no tension: see sph.py
 }
 #endif
 

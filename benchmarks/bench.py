@@ -10,7 +10,8 @@ adds the 3D fountain (step against its numpy twin; sprite renders of 1 to 32 pix
 blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against the CPU route,
 shadow map, whole frames with and without each part), ``--scenes boids`` the boids step at
 2^12 to 2^16 against its neighbour grid's build and a numpy step over a k-d tree's pairs,
-``--scenes liquid`` the liquid's step likewise against its grids' builds and numpy,
+``--scenes liquid`` the liquid's step likewise against its grids' builds and numpy, ``--scenes
+sph`` the SPH dam break's at 5, 2.5 and 1.25 cm spacing,
 ``--scenes accumulate`` the image noise of
 ``--accumulate K`` against a float64 reference of 10^9 samples (10^8 with ``--quick``), ours and
 numpy, by samples and by time. It prints tables and writes
@@ -525,6 +526,68 @@ def liquid_section(ctx, sizes, repeats, emit):
         emit(f"Scaling of the liquid step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
 
 
+def sph_numpy_step(x, v, p):
+    """The SPH step in numpy (float64), its pairs from a numpy cell list: the same equations as
+    sph.frag (density, Tait pressure without tension, Monaghan viscosity, walls)."""
+    from es2particles.scenes.sph import G, RHO0, wendland
+    from es2particles.twins.neighbours import pairs_within
+
+    h, m, c0, dt, n = p.h, RHO0 * p.spacing ** 2, p.sound, p.step, len(x)
+    i, j, r = pairs_within(x, 2 * h)
+    w = m * wendland(r, h)
+    rho = np.bincount(i, w, n) + np.bincount(j, w, n) + m * wendland(np.zeros(1), h)[0]
+    pressure = np.maximum(RHO0 * c0 * c0 / 7 * ((rho / RHO0) ** 7 - 1), 0.0)
+    i, j, r = np.concatenate([i, j]), np.concatenate([j, i]), np.concatenate([r, r])
+    apart = r > 0
+    i, j, r = i[apart], j[apart], r[apart]
+    d = x[i] - x[j]
+    term = pressure[i] / rho[i] ** 2 + pressure[j] / rho[j] ** 2
+    approach = ((v[i] - v[j]) * d).sum(axis=1)
+    mu = h * approach / (r * r + 0.01 * h * h)
+    term += np.where(approach < 0, -p.viscosity * c0 * mu / (0.5 * (rho[i] + rho[j])), 0.0)
+    q = r / h
+    slope = -35 / (4 * np.pi * h ** 3) * q * np.clip(1 - q / 2, 0, None) ** 3
+    push = (m * term * slope / r)[:, None] * d
+    a = np.array([0.0, -G]) - np.stack([np.bincount(i, push[:, k], n) for k in range(2)], 1)
+    v = v + dt * a
+    box = np.asarray(p.box, float)
+    v = np.where(((x <= 0) & (v < 0)) | ((x >= box) & (v > 0)), -p.restitution * v, v)
+    return np.clip(x + dt * v, 0, box), v
+
+
+def sph_section(ctx, spacings, repeats, emit):
+    """The SPH dam break's step (one neighbour grid of support 2h; density, acceleration,
+    position) 200 steps after the release, against its grid's build and the same step in
+    numpy, at several spacings of the 1 x 2 m column."""
+    from es2particles.frame.simulation import Simulation
+    from es2particles.scenes.sph import Sph
+
+    emit("| spacing | N | step ms (min-max) | grid build ms | build share | numpy ms | "
+         "numpy/ours |")
+    emit("|---|---|---|---|---|---|---|")
+    growth = []
+    for spacing in spacings:
+        scene = Sph(spacing=spacing)
+        count = scene.params.count
+        with Simulation(ctx, scene.graph(ctx.caps), count, rounding="dither") as sim:
+            scene.initialise(sim, np.random.default_rng(1))
+            sim.run(200)
+            step = timed(sim.step, repeats, ctx.finish)
+            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
+                                                        "neighbour table")]
+            frame = sim.executor.frame()
+            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            x, v = sim.download("position"), sim.download("velocity")
+        peer = timed(lambda: sph_numpy_step(x, v, scene.params), repeats)
+        growth.append((count, step[0]))
+        emit(f"| {spacing:g} m | {count} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-"
+             f"{step[2] * 1e3:.1f}) | {grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | "
+             f"{peer[0] * 1e3:.1f} | {peer[0] / step[0]:.2f} |")
+    if len(growth) >= 2:
+        counts, times = zip(*growth)
+        emit(f"Scaling of the SPH step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
+
+
 def smoke_section(ctx, sizes, repeats, emit):
     """The smoke: its step (acceleration, velocity, position, life), the back-to-front sort (key
     pass + the whole odd-even merge network, or 8 passes of it spread over frames) against the
@@ -902,6 +965,10 @@ def main(argv=None):
             if scene == "confetti":
                 confetti_section(ctx, [12, 14] if args.quick else [12, 14, 16, 18],
                                  args.repeats, emit)
+                continue
+            if scene == "sph":
+                sph_section(ctx, [0.05, 0.025] if args.quick else [0.05, 0.025, 0.0125],
+                            args.repeats, emit)
                 continue
             if scene == "liquid":
                 liquid_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit)

@@ -6,7 +6,8 @@ A fenced block says what it is in its info string, and each kind is carried out:
   package), after the blocks before it on the page;
 - ``sh``: each line run by bash in that folder, with this interpreter's ``bin`` first on the
   PATH; an ``es2particles run`` or ``export`` line gets ``--size 96x96 --particles 2048`` added
-  at its end, so a page's commands stay quick here (the options are checked all the same). The
+  at its end (``run sph``, whose count follows its spacing: ``--size 96x96 --spacing 0.1 --steps
+  100``), so a page's commands stay quick here (the options are checked all the same). The
   README's first two ``sh`` blocks are the set-up commands, which CI runs as written (.ci/run);
 - ``glsl file=NAME``, ``toml file=NAME``: written to NAME in the folder for the blocks after it
   (a shader a Python block loads, a run file a command reads); a ``toml`` block without a file
@@ -62,6 +63,8 @@ def test_every_block_says_what_it_is(page):
 
 def _small(line):
     words = line.split()
+    if len(words) >= 3 and words[:3] == ["es2particles", "run", "sph"]:  # count from spacing
+        return line + " --size 96x96 --spacing 0.1 --steps 100"
     if len(words) >= 2 and words[0] == "es2particles" and words[1] in ("run", "export") \
             and "--config" not in words:
         return line + " " + " ".join(SMALL)

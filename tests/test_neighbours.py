@@ -30,7 +30,11 @@ void main()
         if (dot(d, d) < u_h2) {
             vec2 texel = floor(other * u_neighbour_state_size);
             float i = texel.y * u_neighbour_state_size.x + texel.x;
-            found += vec4(1.0, i, mod(i, 61.0) * mod(i, 67.0), 0.0);
+            // i mod 61 and 67 from a floor that cannot land on a multiple: GLSL's mod(x, y)
+            // divides, and NVIDIA's division put 61 k at 61 rather than 0 (seen on an H200)
+            float a = i - 61.0 * floor((i + 0.5) / 61.0);
+            float b = i - 67.0 * floor((i + 0.5) / 67.0);
+            found += vec4(1.0, i, a * b, 0.0);
         }
     }
     write_found(found);

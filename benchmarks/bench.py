@@ -11,7 +11,8 @@ blend modes), ``--scenes smoke`` the smoke at 2^14 to 2^18 (step, sort against t
 shadow map, whole frames with and without each part), ``--scenes boids`` the boids step at
 2^12 to 2^16 against its neighbour grid's build and a numpy step over a k-d tree's pairs,
 ``--scenes liquid`` the liquid's step likewise against its grids' builds and numpy, ``--scenes
-sph`` the SPH dam break's at 5, 2.5 and 1.25 cm spacing,
+sph`` the SPH dam break's at 5, 2.5 and 1.25 cm spacing, ``--scenes neighbours`` a
+neighbour search through the grid against the sort alone and against every pair,
 ``--scenes accumulate`` the image noise of
 ``--accumulate K`` against a float64 reference of 10^9 samples (10^8 with ``--quick``), ours and
 numpy, by samples and by time. It prints tables and writes
@@ -588,6 +589,81 @@ def sph_section(ctx, spacings, repeats, emit):
         emit(f"Scaling of the SPH step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
 
 
+NEIGHBOURS_FOUND = """#version 100
+// How many particles lie within sqrt(u_h2): through the neighbour grid, or (BRUTE) all of them.
+void main()
+{
+    vec2 p = read_position(v_uv);
+    float found = 0.0;
+#ifdef BRUTE
+    for (highp int k = 0; k < COUNT; k++) {
+        float i = float(k);
+        float row = floor((i + 0.5) / u_state_size.x);
+        vec2 d = read_position((vec2(i - row * u_state_size.x, row) + 0.5) / u_state_size) - p;
+        found += dot(d, d) < u_h2 ? 1.0 : 0.0;
+    }
+#else
+    vec2 other;
+    FOR_EACH_NEIGHBOUR(p, other) {
+        vec2 d = read_position(other) - p;
+        found += dot(d, d) < u_h2 ? 1.0 : 0.0;
+    }
+#endif
+    write_found(found);
+}
+"""
+
+
+def neighbours_section(ctx, sizes, brute_sizes, repeats, emit):
+    """Finding each particle's neighbours within h (uniform over the unit square, about 13 each):
+    the neighbour grid's build (key pass, sort, table) plus the pass counting through it, the
+    sort alone, and a pass comparing every pair (N^2 fetches), each timed as a whole step."""
+    import tempfile
+
+    from es2particles.frame.graph import PassGraph
+    from es2particles.frame.simulation import Simulation
+
+    folder = Path(tempfile.mkdtemp())
+    (folder / "found.frag").write_text(NEIGHBOURS_FOUND)
+    (folder / "keep.frag").write_text("#version 100\nvoid main() { write_position("
+                                      "read_position(v_uv)); }\n")
+
+    def graph(count, brute):
+        h = 1 / 128 if count >= 2 ** 16 else (13 / (np.pi * count)) ** 0.5
+        g = PassGraph()
+        g.quantity("position", 0.0, 1.0)
+        g.quantity("found", 0.0, 2.0 ** 16, components=1)
+        g.add("keep", str(folder / "keep.frag"), writes="position", reads=["position"])
+        if brute:
+            g.add("found", str(folder / "found.frag"), writes="found", reads=["position"],
+                  uniforms={"u_h2": h * h}, defines={"BRUTE": None, "COUNT": count})
+        else:
+            g.neighbours("cells", "position", cell=h, bound=1024)
+            g.add("found", str(folder / "found.frag"), writes="found", reads=["position"],
+                  neighbours="cells", uniforms={"u_h2": h * h})
+        return g
+
+    emit("| N | grid + count ms | of it the sort ms | all pairs ms | all pairs / grid |")
+    emit("|---|---|---|---|---|")
+    for log2n in sizes:
+        count = 2 ** log2n
+        rng = np.random.default_rng(1)
+        with Simulation(ctx, graph(count, False), count, fmt="rgba32f") as sim:
+            sim.upload("position", rng.random((count, 2)))
+            sim.run(1)
+            grid = timed(sim.step, repeats, ctx.finish)
+            merge = [s for s in sim.stages if s.kind == "sort merge"]
+            frame = sim.executor.frame()
+            sort = timed(lambda: [sim.executor.run(s, frame) for s in merge], repeats, ctx.finish)
+        brute = None
+        if log2n in brute_sizes:
+            with Simulation(ctx, graph(count, True), count, fmt="rgba32f") as sim:
+                sim.upload("position", rng.random((count, 2)))
+                brute = timed(sim.step, max(1, repeats // 3), ctx.finish)
+        emit(f"| 2^{log2n} | {grid[0] * 1e3:.1f} | {sort[0] * 1e3:.1f} | {fmt_ms(brute)} | "
+             f"{'-' if brute is None else f'{brute[0] / grid[0]:.1f}'} |")
+
+
 def smoke_section(ctx, sizes, repeats, emit):
     """The smoke: its step (acceleration, velocity, position, life), the back-to-front sort (key
     pass + the whole odd-even merge network, or 8 passes of it spread over frames) against the
@@ -965,6 +1041,10 @@ def main(argv=None):
             if scene == "confetti":
                 confetti_section(ctx, [12, 14] if args.quick else [12, 14, 16, 18],
                                  args.repeats, emit)
+                continue
+            if scene == "neighbours":
+                neighbours_section(ctx, [12, 14] if args.quick else [12, 14, 16],
+                                   [12] if args.quick else [12, 14], args.repeats, emit)
                 continue
             if scene == "sph":
                 sph_section(ctx, [0.05, 0.025] if args.quick else [0.05, 0.025, 0.0125],

@@ -336,7 +336,7 @@ MUTATIONS = (
                "(read_position(v_uv) - read_predicted(v_uv)) * u_dt"),),
              ("tests/test_liquid.py",)),
     Mutation("liquid-obstacle-half", "liquid", "the obstacle holds out only half its radius",
-             ((LIQUID, "if (r < u_obstacle.z) {", "if (r < 0.5 * u_obstacle.z) {"),),
+             ((LIQUID, "if (length(c) < obstacle.z) {", "if (length(c) < 0.5 * obstacle.z) {"),),
              ("tests/test_liquid.py",)),
     Mutation("liquid-saved-density-cubed", "liquid",
              "the saved state's density recomputed with (1 - q)^3",

@@ -103,3 +103,26 @@ def test_a_saved_state_s_densities_are_every_pair_s():
 def test_bad_options_are_one_line_naming_them(given, count, words):
     with pytest.raises(ParameterError, match=words):
         Liquid(**given).graph(None, count=count)
+
+
+def test_a_drag_in_the_live_view_carries_the_obstacle(gl):
+    """The window's and the widget's drag: while the button is down the obstacle circle sits
+    under the pointer (no particle stays inside it), and the declared one is free again once
+    it comes up."""
+    from es2particles.frame.pipeline import Pipeline
+    from es2particles.live.view import LiveView
+
+    times = iter(np.arange(0, 100, 0.05))
+    scene = Liquid(obstacle=(0.5, 0.8, 0.1), fill=(0.0, 0.0, 1.0, 0.4))
+    with Pipeline(gl, scene, particles=2048, size=(128, 128), steps=0) as pipeline:
+        view = LiveView(pipeline, clock=lambda: float(next(times)))
+        view.start()
+        view.press(32, 112, (128, 128))  # world (0.25, 0.125): in the liquid
+        view.move(33, 112, (128, 128))
+        view.run_steps(3)
+        held = pipeline.sim.download("position")
+        view.release()
+        view.run_steps(1)
+    r = np.hypot(held[:, 0] - 33.5 / 128, held[:, 1] - (1 - 112.5 / 128))  # the pixel's centre
+    assert r.min() >= 0.1 * (1 - 1e-3), r.min()  # pushed out of the carried circle
+    assert np.count_nonzero(r < 0.2) > 10  # and piled round it

@@ -21,7 +21,7 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
-from .base import Scene
+from .base import Push, Scene
 
 SHADER = "liquid/liquid.frag"
 # The share of the pairs' summed displacements a particle takes in the gather form. The paper's
@@ -142,6 +142,7 @@ class Liquid(Scene):
                         "u_stiffness": (float(p.stiffness) * h, float(p.near_stiffness) * h),
                         "u_share": GATHER_SHARE,
                         "u_obstacle": tuple(map(float, p.obstacle)),
+                        "u_push": (0.0, 0.0, 1.0, 0.0), "u_push_velocity": (0.0, 0.0),
                         "u_box": (float(w), float(hb))})
         g.add("velocity", SHADER, writes="velocity", reads_new=["velocity", "position",
                                                                 "predicted"],
@@ -150,6 +151,12 @@ class Liquid(Scene):
 
     def time_step(self, count):
         return self.dt_for(count)
+
+    def push(self):
+        """A hand's drag (the live view, the widget) carries the obstacle: a circle of the
+        obstacle's radius (0.08 of the box where --obstacle has none) under the pointer."""
+        radius = self.params.obstacle[2] or 0.08 * min(self.params.box)
+        return Push("u_push", "u_push_velocity", float(radius))
 
     def derived(self, state, count):
         """``density`` and ``near_density`` (Clavet's sums over the others within h),

@@ -72,10 +72,15 @@ void main()
         }
     }
     x += move;
-    vec2 c = x - u_obstacle.xy;  // the obstacle circle (x, y, radius)
-    float r = length(c);
-    if (r < u_obstacle.z) {
-        x = u_obstacle.xy + (r > 0.0 ? c / r : vec2(0.0, 1.0)) * u_obstacle.z;
+    // The obstacle circle (x, y, radius); while a hand drags (u_push.w = 1) it is under the
+    // pointer, radius u_push.z, and what it holds is carried along by the pointer's velocity
+    // before it is put on the circle.
+    vec3 obstacle = u_push.w > 0.5 ? u_push.xyz : u_obstacle;
+    vec2 c = x - obstacle.xy;
+    if (length(c) < obstacle.z) {
+        c += u_push.w * u_dt * u_push_velocity;
+        float r = length(c);
+        x = obstacle.xy + (r > 0.0 ? c / r : vec2(0.0, 1.0)) * obstacle.z;
     }
     write_position(clamp(x, vec2(0.0), u_box));
 #endif

@@ -387,6 +387,24 @@ def upsample_section(ctx, repeats, emit):
                  f"{diff[~edges].mean():.2f} | {fmt_ms(t)} | {1 - t[0] / full[0]:.0%} |")
 
 
+def step_and_build(ctx, sim, repeats):
+    """(a whole step's timing, its neighbour grids' builds' timing) of simulation ``sim``: the
+    key passes, sorts and tables run alone, as the step runs them."""
+    build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
+                                                "neighbour table")]
+    frame = sim.executor.frame()
+    return (timed(sim.step, repeats, ctx.finish),
+            timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish))
+
+
+def emit_scaling(emit, name, growth):
+    """The exponent of a step's time against N, from (count, seconds) pairs."""
+    if len(growth) >= 2:
+        counts, times = zip(*growth)
+        exponent = np.polyfit(np.log(counts), np.log(times), 1)[0]
+        emit(f"Scaling of the {name} step with N: time ~ N^{exponent:.2f}")
+
+
 def boids_numpy_step(x, v, p):
     """The boids step in numpy (float64): scipy's k-d tree finds the pairs within the largest
     radius, the three rules sum over them with bincount; the same rules as boids.frag."""
@@ -438,20 +456,14 @@ def boids_section(ctx, sizes, repeats, emit):
         with Simulation(ctx, scene.graph(ctx.caps), count) as sim:
             scene.initialise(sim, np.random.default_rng(1))
             sim.run(20)
-            step = timed(sim.step, repeats, ctx.finish)
-            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
-                                                        "neighbour table")]
-            frame = sim.executor.frame()
-            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            step, grid = step_and_build(ctx, sim, repeats)
             x, v = sim.download("position"), sim.download("velocity")
         peer = timed(lambda: boids_numpy_step(x, v, scene.params), repeats)
         growth.append((count, step[0]))
         emit(f"| 2^{log2n} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f}) | "
              f"{grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | {peer[0] * 1e3:.1f} | "
              f"{peer[0] / step[0]:.2f} |")
-    if len(growth) >= 2:
-        counts, times = zip(*growth)
-        emit(f"Scaling of the boids step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
+    emit_scaling(emit, "boids", growth)
 
 
 def liquid_numpy_step(x, v, p, h, dt):
@@ -510,11 +522,7 @@ def liquid_section(ctx, sizes, repeats, emit):
         with Simulation(ctx, scene.graph(ctx.caps, count=count), count) as sim:
             scene.initialise(sim, np.random.default_rng(1))
             sim.run(30)
-            step = timed(sim.step, repeats, ctx.finish)
-            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
-                                                        "neighbour table")]
-            frame = sim.executor.frame()
-            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            step, grid = step_and_build(ctx, sim, repeats)
             x, v = sim.download("position"), sim.download("velocity")
         h, dt = scene.radius_for(count), scene.dt_for(count)
         peer = timed(lambda: liquid_numpy_step(x, v, scene.params, h, dt), repeats)
@@ -522,9 +530,7 @@ def liquid_section(ctx, sizes, repeats, emit):
         emit(f"| 2^{log2n} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f}) | "
              f"{grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | {peer[0] * 1e3:.1f} | "
              f"{peer[0] / step[0]:.2f} |")
-    if len(growth) >= 2:
-        counts, times = zip(*growth)
-        emit(f"Scaling of the liquid step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
+    emit_scaling(emit, "liquid", growth)
 
 
 def sph_numpy_step(x, v, p):
@@ -573,20 +579,14 @@ def sph_section(ctx, spacings, repeats, emit):
         with Simulation(ctx, scene.graph(ctx.caps), count, rounding="dither") as sim:
             scene.initialise(sim, np.random.default_rng(1))
             sim.run(200)
-            step = timed(sim.step, repeats, ctx.finish)
-            build = [s for s in sim.stages if s.kind in ("neighbour key", "sort merge",
-                                                        "neighbour table")]
-            frame = sim.executor.frame()
-            grid = timed(lambda: [sim.executor.run(s, frame) for s in build], repeats, ctx.finish)
+            step, grid = step_and_build(ctx, sim, repeats)
             x, v = sim.download("position"), sim.download("velocity")
         peer = timed(lambda: sph_numpy_step(x, v, scene.params), repeats)
         growth.append((count, step[0]))
         emit(f"| {spacing:g} m | {count} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-"
              f"{step[2] * 1e3:.1f}) | {grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | "
              f"{peer[0] * 1e3:.1f} | {peer[0] / step[0]:.2f} |")
-    if len(growth) >= 2:
-        counts, times = zip(*growth)
-        emit(f"Scaling of the SPH step with N: time ~ N^{np.polyfit(np.log(counts), np.log(times), 1)[0]:.2f}")
+    emit_scaling(emit, "SPH", growth)
 
 
 NEIGHBOURS_FOUND = """#version 100

@@ -15,8 +15,7 @@ void main()
     FOR_EACH_NEIGHBOUR(x, other) {
         vec2 d = read_position(other) - x;
         float r = length(d);
-        bool self = floor(other * u_state_size) == floor(v_uv * u_state_size);
-        if (self || (r >= u_radii.z && r >= u_radii.y)) {
+        if (!neighbour_other(other) || (r >= u_radii.z && r >= u_radii.y)) {
             continue;
         }
         if (r < u_radii.x && r > 0.0) {

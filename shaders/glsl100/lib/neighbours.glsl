@@ -84,6 +84,13 @@ bool neighbour_next(vec2 point, int row, int k, out vec2 uv)
     return true;
 }
 
+// Whether the particle at `other` is another than the one this pass computes (the loop visits
+// the particle itself too).
+bool neighbour_other(vec2 other)
+{
+    return floor(other * u_neighbour_state_size) != floor(v_uv * u_neighbour_state_size);
+}
+
 // The loop: FOR_EACH_NEIGHBOUR(point, uv) { body }, `uv` a vec2 variable the body reads. Its
 // counter is highp: a mediump int need not count past 1024.
 #define FOR_EACH_NEIGHBOUR(POINT, UV) for (int neighbour_row = 0; neighbour_row < 3; neighbour_row++) for (highp int neighbour_k = 0; neighbour_k < NEIGHBOUR_BOUND; neighbour_k++) if (!neighbour_next(POINT, neighbour_row, neighbour_k, UV)) break; else

@@ -13,13 +13,6 @@
 //   then the walls and the obstacle circle push it back inside;
 // - VELOCITY: the velocity from the position change, v + (x - x_predicted) / dt.
 
-#ifdef NEIGHBOUR_BOUND
-bool other_one(vec2 other)  // not this particle itself
-{
-    return floor(other * u_neighbour_state_size) != floor(v_uv * u_neighbour_state_size);
-}
-#endif
-
 void main()
 {
 #ifdef VISCOSITY
@@ -30,7 +23,7 @@ void main()
     FOR_EACH_NEIGHBOUR(x, other) {
         vec2 d = read_position(other) - x;
         float r = length(d);
-        if (r < u_h && r > 0.0 && other_one(other)) {
+        if (r < u_h && r > 0.0 && neighbour_other(other)) {
             vec2 n = d / r;
             float u = dot(v - read_velocity(other), n);
             if (u > 0.0) {
@@ -49,7 +42,7 @@ void main()
     vec2 other;
     FOR_EACH_NEIGHBOUR(x, other) {
         float q = length(read_predicted(other) - x) / u_h;
-        if (q < 1.0 && other_one(other)) {
+        if (q < 1.0 && neighbour_other(other)) {
             float a = 1.0 - q;
             rho += vec2(a * a, a * a * a);
         }
@@ -64,7 +57,7 @@ void main()
     FOR_EACH_NEIGHBOUR(x, other) {
         vec2 d = read_predicted(other) - x;
         float r = length(d);
-        if (r < u_h && r > 0.0 && other_one(other)) {
+        if (r < u_h && r > 0.0 && neighbour_other(other)) {
             vec2 rho = own + read_rho(other);  // the pair's summed densities
             float a = 1.0 - r / u_h;
             float p = u_stiffness.x * (rho.x - 2.0 * u_rest) * a + u_stiffness.y * rho.y * a * a;

@@ -10,11 +10,6 @@
 const float PI = 3.141592653589793;
 
 #ifdef NEIGHBOUR_BOUND
-bool other_one(vec2 other)  // not this particle itself
-{
-    return floor(other * u_neighbour_state_size) != floor(v_uv * u_neighbour_state_size);
-}
-
 // Wendland C2 in 2D, support 2h: W(q) = 7 / (4 pi h^2) (1 - q/2)^4 (2q + 1), q = r / h.
 float kernel(float r)
 {
@@ -68,7 +63,7 @@ void main()
     FOR_EACH_NEIGHBOUR(x, other) {
         vec2 d = x - read_position(other);  // from j to i
         float r = length(d);
-        if (r > 0.0 && r < 2.0 * u_h && other_one(other)) {
+        if (r > 0.0 && r < 2.0 * u_h && neighbour_other(other)) {
             float rho_j = read_rho(other);
             float term = own + pressure(rho_j) / (rho_j * rho_j);
             float approach = dot(v - read_velocity(other), d);

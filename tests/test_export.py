@@ -451,7 +451,7 @@ def test_export_writes_one_self_contained_page(tmp_path):
 SCENES_3D = [Fountain(), Collision3D(), Collision3D(shadows="on"),
              Collision3D(sprite="puff", blend="add", opacity=0.1, soft=0.1, buffer_scale=0.5,
                          scene_depth="packed"),
-             Confetti(), Smoke()]
+             Confetti(), Smoke(), Confetti(shafts="on"), Fountain(shafts="on", shaft_scale=0.5)]
 SIZE_3D = (256, 256)
 N_3D = 4096
 # Measured on Chromium's SwiftShader against llvmpipe (README): drawing the same state differs

@@ -61,6 +61,8 @@ class Quads(Rendering):
     roles : mapping
         role -> the scene's quantity: ``position`` (3 components), ``normal`` (2: octahedral),
         ``fade`` (a life clock: unborn and dead particles are not drawn).
+    shafts : shafts.Shafts or None
+        Light shafts streaming from ``light`` past the meshes and the quads (opaque occluders).
     """
 
     half_size: float = 0.03
@@ -70,6 +72,7 @@ class Quads(Rendering):
     background: tuple = (0.05, 0.06, 0.09)
     meshes: tuple = ()
     roles: object = None
+    shafts: object = None
 
     settings = ()
     has_camera = True
@@ -127,15 +130,26 @@ class Quads(Rendering):
         player = {{"fade": "life"}.get(r, r): q for r, q in self.roles.items()}
         inputs = {sampler: Ref(player[q], part)
                   for sampler, (_, q, part, _) in interface.samplers.items()}
+        quads = dict(vertex_interface=interface, inputs=inputs, vertices="quads",
+                     primitive="triangles", count=6 * layout.count, uniforms=own,
+                     generated=generated_values(interface, layout),
+                     frame_uniforms={"u_view_projection": ("view_projection",)})
         b.stage(Stage(
             "quads", "quads", "quads/confetti.frag", "quads/confetti.vert",
-            {"PALETTE": len(PALETTE)}, vertex_interface=interface, inputs=inputs,
-            target=Ref("image"), vertices="quads", primitive="triangles",
-            count=6 * layout.count, state=DrawState(depth_test=True), uniforms=own,
-            generated=generated_values(interface, layout),
-            frame_uniforms={"u_view_projection": ("view_projection",)},
+            {"PALETTE": len(PALETTE)}, target=Ref("image"), state=DrawState(depth_test=True),
             clear=None if self.meshes else (*background, 1.0),
             what=f"{layout.count} quads of {2 * self.half_size:g} m ({', '.join(self.shapes)}): "
                  f"4 vertices each through one index buffer, vertex texture fetch of "
-                 f"{', '.join(self.reads)}"))
-        return "image"
+                 f"{', '.join(self.reads)}", **quads))
+        if self.shafts is None:
+            b.left_out.append("light shafts (switched off)")
+            return "image"
+        from .shafts import plan_shafts
+
+        def occluders(target, scale, clear):  # opaque: black, hidden behind the meshes
+            b.stage(Stage("shaft occluders: quads", "shafts", "quads/confetti.frag",
+                          "quads/confetti.vert", {"PALETTE": len(PALETTE), "OCCLUDER": None},
+                          target=Ref(target), state=DrawState(depth_test=True), clear=clear,
+                          what="black: each stops the light", **quads))
+
+        return plan_shafts(b, self.shafts, "image", self.light, self.meshes, occluders)

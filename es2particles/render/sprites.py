@@ -228,6 +228,7 @@ class Sprites(Rendering):
     buffer_scale: float = 1.0
     upsample: str = "bilateral"
     scene_depth: str = "auto"
+    shafts: object = None
 
     settings = ("point_size",)
     has_camera = True
@@ -377,6 +378,9 @@ class Sprites(Rendering):
             uniforms["u_attenuation"] = (1.0, 0.0, 0.0)
             frame["u_size"] = ("jogl_sprite_size", drawn_pixels, float(self.size_spread),
                                *map(float, self.law_anchor), float(self.law_distance))
+        # The light shafts' occluders draw the same sprites in texel order (the multiply blend
+        # needs no order), unshadowed, at the shafts' scale.
+        occluder = (dict(defines), dict(inputs), dict(uniforms), dict(frame), pixel_size)
         vertices = None
         order = "texel order"
         if self.sort is not None:
@@ -427,9 +431,42 @@ class Sprites(Rendering):
         what = (f"{layout.count} point sprites in {order}, vertex texture fetch of "
                 f"{', '.join(self.reads)}")
         if buffered:
-            return self._plan_buffered(b, defines, interface, {**self.role_inputs(interface),
-                                                               **inputs},
-                                       vertices, uniforms, frame, depth_texture, what)
+            picture = self._plan_buffered(b, defines, interface,
+                                          {**self.role_inputs(interface), **inputs},
+                                          vertices, uniforms, frame, depth_texture, what)
+        else:
+            picture = self._plan_direct(b, defines, interface, inputs, vertices, uniforms,
+                                        frame, what)
+        if self.shafts is None:
+            b.left_out.append("light shafts (switched off)")
+            return picture
+        from .shafts import plan_shafts
+
+        return plan_shafts(b, self.shafts, picture,
+                           self.lamp.position if self.lamp is not None else self.light,
+                           self.meshes, lambda target, scale, clear: self._plan_occluders(
+                               b, interface, occluder, target, scale, clear))
+
+    def _plan_occluders(self, b, interface, occluder, target, scale, clear):
+        """The sprites into the light shafts' occluders: each multiplies the light passing by one
+        less its opacity (``OCCLUDER``), behind the meshes hidden by their depth."""
+        defines, inputs, uniforms, frame, pixel_size = occluder
+        size = list(frame["u_size"])
+        size[1] = pixel_size * scale
+        b.stage(Stage(
+            "shaft occluders: sprites", "shafts", "sprites/sprite.frag", "sprites/sprite.vert",
+            {**defines, "OCCLUDER": None}, vertex_interface=interface,
+            inputs={**self.role_inputs(interface), **inputs}, target=Ref(target),
+            vertices=b.particle_texels(), primitive="points", count=b.layout.count,
+            state=DrawState(blend="multiply", depth_test=bool(self.meshes), depth_write=False,
+                            point_size=True, sprites=True),
+            uniforms=uniforms, generated=generated_values(interface, b.layout),
+            frame_uniforms={**frame, "u_size": tuple(size)}, clear=clear,
+            what="each lets 1 - its opacity of the light through"))
+
+    def _plan_direct(self, b, defines, interface, inputs, vertices, uniforms, frame, what):
+        """The sprites straight into the picture, depth-tested against the meshes."""
+        layout, background = b.layout, tuple(float(v) for v in self.background)
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
             vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},

@@ -13,6 +13,7 @@ from ..errors import ParameterError
 from ..frame.settings import Defaults
 from ..params import param
 from ..render.quads import SHAPES, Quads
+from ..render.shafts import backlight
 from .collision3d import Collision3D, Collision3DParams
 from .emitter import time_step
 
@@ -82,4 +83,5 @@ class Confetti(Collision3D):
     def rendering(self):
         p = self.params
         return Quads(half_size=p.paper_size / 2, shapes=p.shape_list,
-                     light=(-1.5, 6.0, 3.0), meshes=tuple(self.meshes()))
+                     light=(-1.5, 6.0, 3.0), meshes=tuple(self.meshes()),
+                     shafts=p.shafts_declared(backlight(p.eye, p.target)))

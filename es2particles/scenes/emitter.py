@@ -21,8 +21,9 @@ import numpy as np
 from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
-from ..params import Params, param
+from ..params import param
 from ..render.camera import Camera, orbit
+from ..render.shafts import ShaftParams, backlight
 from ..render.sprites import SCENE_DEPTHS, SIZE_LAWS, UPSAMPLES, Sprites, check_sprite
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Scene
@@ -57,7 +58,7 @@ def sprite(default):
 
 
 @dataclass(frozen=True)
-class EmitterParams(Params):
+class EmitterParams(ShaftParams):
     """What every member declares, each with its own defaults (the fountain's here; a member
     re-declares a field with :func:`time_step`, :func:`lifetimes`, :func:`eye`, :func:`target`,
     :func:`blend` or :func:`sprite`): the time step, the lifetimes, the camera and the sprites'
@@ -93,6 +94,7 @@ class EmitterParams(Params):
                                "xz distance to the target, as a fraction of the first camera's)")
 
     def check(self):
+        super().check()
         check_sprite(self.sprite)
         lo, hi = self.lifetime
         longest = longest_life(self.dt)
@@ -202,10 +204,14 @@ class Emitter(Scene):
             "size_law": "jogl", "law_anchor": (p.target[0], p.target[2]),
             "law_distance": float(np.hypot(default.eye[0] - default.target[0],
                                            default.eye[2] - default.target[2]))}
+        sprites = self.sprites()
+        lamp = sprites.get("lamp")
+        shafts = p.shafts_declared(lamp.position if lamp is not None
+                                   else backlight(p.eye, p.target))
         return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "blend": p.blend,
                           "sprite": p.sprite, "soft": p.soft, "buffer_scale": p.buffer_scale,
                           "upsample": p.upsample, "scene_depth": p.scene_depth,
-                          **self.sprites(), **law,
+                          "shafts": shafts, **sprites, **law,
                           "meshes": tuple(self.meshes())})
 
 

@@ -81,6 +81,14 @@
   }
   const floatTexture = gl.getExtension("OES_texture_float");
   const halfTexture = gl.getExtension("OES_texture_half_float");
+  // WebGL 1 filters a float or half-float texture linearly only where these are enabled; one
+  // sampled linearly without them reads black (an incomplete texture).
+  const filters = {
+    [gl.UNSIGNED_BYTE]: true,
+    [gl.FLOAT]: gl.getExtension("OES_texture_float_linear") !== null,
+    [halfTexture ? halfTexture.HALF_FLOAT_OES : -1]:
+      gl.getExtension("OES_texture_half_float_linear") !== null,
+  };
   const usesFloat = Object.values(plan.resources).some((r) => r.type === "float");
   if (usesFloat && !floatTexture) missing.push("OES_texture_float: the scene samples float textures");
   if (missing.length) {
@@ -373,6 +381,11 @@
       }
       if (type === null) fail(`target ${name}: this context can render into none of its formats`);
       if (format !== r.format) show(`target ${name}`, `${format} (the context has no ${r.format})`);
+      if (r.linear && !filters[type]) {  // read through linear filtering: bytes filter everywhere
+        show(`target ${name}`, `rgba8 (the context cannot filter ${format} linearly)`);
+        type = gl.UNSIGNED_BYTE;
+        format = "rgba8";
+      }
       const depth = r.depth ? gl.createRenderbuffer() : null;
       if (depth) {
         gl.bindRenderbuffer(gl.RENDERBUFFER, depth);

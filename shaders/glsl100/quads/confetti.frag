@@ -1,7 +1,8 @@
 #version 100
 // A confetti's shape, made from the quad's own coordinates (v_corner in [-1, 1]^2, the ARM
 // chapter's procedural shapes): 0 a disc, 1 a square, 2 a five-pointed star; the rest of the
-// quad is discarded, so the quads are opaque shapes with depth.
+// quad is discarded, so the quads are opaque shapes with depth. OCCLUDER: drawn black, for the
+// light shafts (render/shafts.py).
 precision mediump float;
 varying vec2 v_corner;
 varying vec3 v_colour;
@@ -25,5 +26,9 @@ void main()
     if (inside < 0.5) {
         discard;
     }
+#ifdef OCCLUDER
+    gl_FragColor = vec4(0.0, 0.0, 0.0, 1.0);  // light shafts' occluder: it stops the light
+#else
     gl_FragColor = vec4(v_colour, 1.0);
+#endif
 }

@@ -2,7 +2,7 @@
 // A sprite's colour: its texture over gl_PointCoord, mixed with the tint, alpha from the texture,
 // the particle's age and the opacity; premultiplied, so one output serves both blend modes
 // (additive: ONE, ONE; over: ONE, ONE_MINUS_SRC_ALPHA). v_light is the light that reaches the
-// particle (1 unless it is shadowed).
+// particle (1 unless it is shadowed). OCCLUDER: the light it lets through instead.
 precision mediump float;
 uniform sampler2D u_sprite;
 uniform vec4 u_tint;  // rgb, and how much of it replaces the texture's colour
@@ -49,5 +49,11 @@ void main()
     float gap = scene_distance(gl_FragCoord.xy / u_target_size) - view_distance(gl_FragCoord.z);
     a *= clamp(gap / u_soft, 0.0, 1.0);
 #endif
+#ifdef OCCLUDER
+    // Light shafts' occluders (render/shafts.py): drawn with the multiply blend, each sprite
+    // lets 1 - its opacity of the light through.
+    gl_FragColor = vec4(vec3(1.0 - a), 1.0);
+#else
     gl_FragColor = vec4(mix(t.rgb, tint, u_tint.a) * (v_light * a), a);
+#endif
 }

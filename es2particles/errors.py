@@ -43,6 +43,11 @@ class RangeWarning(UserWarning):
     RGBA8's 16-bit codes); the message says what it reads back as and which range would."""
 
 
+class FaintWarning(UserWarning):
+    """A feature switched on can barely show in this picture (light shafts from a light far off
+    the screen); the message says why and what would show it."""
+
+
 class GraphError(Es2ParticlesError):
     """A pass graph is inconsistent: a cycle, a read nobody provides, two writers of one quantity."""
 

@@ -74,6 +74,7 @@ NTABLE = "shaders/glsl100/neighbours/table.frag"
 NLIB = "shaders/glsl100/lib/neighbours.glsl"
 ORDER = "shaders/glsl100/lib/order.glsl"
 BOIDS = "shaders/glsl100/boids/boids.frag"
+SHAFTS = "shaders/glsl100/shafts/scatter.frag"
 LIQUID = "shaders/glsl100/liquid/liquid.frag"
 SPH = "shaders/glsl100/sph/sph.frag"
 WIND = "shaders/glsl100/wind/fluid.frag"
@@ -370,6 +371,32 @@ MUTATIONS = (
                "np.bincount(i, w, n) + np.bincount(j, w, n) + self_weight",
                "np.bincount(i, w, n) + np.bincount(j, w, n)"),),
              ("tests/test_sph.py",)),
+    # --- light shafts ------------------------------------------------------------------------------
+    Mutation("shafts-ray-from-the-pixel", "shafts",
+             "samples taken from the light towards the pixel: the ray's factor measured from the "
+             "wrong end",
+             ((SHAFTS, "vec2 p = light + (v_uv - light) * f;", "vec2 p = v_uv + (light - v_uv) * f;"),),
+             ("tests/test_shafts.py",)),
+    Mutation("shafts-flip-behind-the-camera", "shafts",
+             "a light behind the camera shines as if in front (the fade takes the cosine's size)",
+             (("shaders/glsl100/shafts/composite.frag", "clamp(facing / u_fade, 0.0, 1.0)",
+               "clamp(abs(facing) / u_fade, 0.0, 1.0)"),),
+             ("tests/test_shafts.py",)),
+    Mutation("shafts-gain-lost", "shafts",
+             "the passes' normalisation never multiplied back",
+             (("es2particles/render/shafts.py", "        gain *= total\n", "        gain *= 1.0\n"),),
+             ("tests/test_shafts.py",)),
+    Mutation("shafts-sprite-opacity-inverted", "shafts",
+             "an occluding sprite lets its opacity through, not one less it",
+             (("shaders/glsl100/sprites/sprite.frag", "gl_FragColor = vec4(vec3(1.0 - a), 1.0);",
+               "gl_FragColor = vec4(vec3(a), 1.0);"),),
+             ("tests/test_shafts.py",)),
+    Mutation("shafts-quads-let-light-through", "shafts",
+             "confetti drawn in their colours into the occluders, not black",
+             (("shaders/glsl100/quads/confetti.frag",
+               "gl_FragColor = vec4(0.0, 0.0, 0.0, 1.0);  // light shafts' occluder",
+               "gl_FragColor = vec4(v_colour, 1.0);  // light shafts' occluder"),),
+             ("tests/test_shafts.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
@@ -378,7 +405,7 @@ CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", 
              "curl-sign", "merge-keeps-larger", "life-ends-a-step-late",
              "iterations-not-ping-ponged", "wind-divergence-sign",
              "neighbour-search-past-the-cell", "boids-separation-attracts",
-             "liquid-density-linear")
+             "liquid-density-linear", "shafts-sprite-opacity-inverted")
 
 
 def make_copy(folder):

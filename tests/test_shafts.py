@@ -14,6 +14,7 @@ from es2particles.cli import main
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.shafts import COLOUR, GLOW, RAY, SEGMENTS, shaft_schedule
 from es2particles.scenes.confetti import Confetti
+from es2particles.scenes.fountain import Fountain
 
 SIZE = (128, 128)
 
@@ -118,6 +119,56 @@ def test_shafts_are_the_integral_over_the_occluders_drawn(gl, mode):
     assert np.abs(error).max() < (1.0 if mode == "reference" else 8.0)
 
 
+def test_the_occluders_are_the_opaque_scene(gl):
+    """Confetti's quads and meshes are opaque: the occluders are 0 wherever the picture shows
+    anything but the sky (its background colour, exactly) and 1 where it shows the sky. At the
+    edges a quad's pixel may be placed otherwise by the two draws: at most 0.5% of the pixels."""
+    with Pipeline(gl, Confetti(shafts="on"), particles=2 ** 12, size=SIZE, steps=120) as p:
+        next(p.frames())
+        occluders = _rgba8(p, "shaft occluders")[..., 0]
+        image = _rgba8(p, "image")[..., :3]
+        background = np.round(np.array(p.plan.rendering.background) * 255)
+    sky = np.all(image == background, axis=2)
+    assert 0.2 < sky.mean() < 0.8
+    wrong = np.where(sky, occluders != 255, occluders != 0)
+    assert wrong.mean() < 0.005, wrong.mean()
+
+
+class WhiteFountain(Fountain):
+    """The fountain's sprites white discs of opacity ``opacity``, untinted: each adds its alpha
+    a to the picture, and lets 1 - a of the light through."""
+
+    def __init__(self, opacity, **given):
+        super().__init__(sprite="disc", shafts="on", **given)
+        self.opacity = opacity
+
+    def sprites(self):
+        return {**super().sprites(), "tint": (1.0, 1.0, 1.0, 0.0), "opacity": self.opacity}
+
+
+def test_a_sprite_lets_one_less_its_opacity_through(gl):
+    """Where the sprites add s = sum a_i to the picture (drawn white and untinted, additively, so
+    s is the picture less the same frame with transparent sprites), the occluders hold
+    prod (1 - a_i), which lies between 1 - s and exp(-s); where one sprite covers a pixel both are
+    1 - a. Only pixels the sprites light a little (s <= 0.16) in front of the sky are measured
+    (the meshes stop all light: 0 there with transparent sprites, 1 elsewhere); 3 codes allow the
+    rounding of each blend into 8 bits."""
+    pictures = []
+    for opacity in (0.7, 0.0):
+        with Pipeline(gl, WhiteFountain(opacity), particles=2 ** 11, size=(256, 256),
+                      seed=5) as p:
+            next(p.frames())
+            pictures.append((_rgba8(p, "image")[..., 0], _rgba8(p, "shaft occluders")[..., 0]))
+    (lit, occluders), (plain, clear) = pictures
+    assert set(np.unique(clear)) == {0.0, 255.0}  # transparent sprites stop nothing; meshes all
+    s = (lit - plain) / 255
+    measured = (s > 0) & (s <= 0.16) & (lit < 255) & (clear == 255)
+    assert measured.sum() > 200
+    got = occluders[measured] / 255
+    assert np.all(got >= 1 - s[measured] - 3 / 255)
+    assert np.all(got <= np.exp(-s[measured]) + 3 / 255)
+
+
 def _picture(gl, **options):
     with Pipeline(gl, Confetti(**options), particles=2 ** 12, size=SIZE, steps=120) as p:
         next(p.frames())
@@ -128,7 +179,10 @@ def test_a_light_behind_the_camera_gives_no_shafts(gl):
     """A light behind the camera fades its shafts out (they never flip to the other side): the
     picture is the one without shafts, byte for byte; a light in front adds light."""
     plain = _picture(gl)
-    behind = _picture(gl, shafts="on", shaft_light=(0.0, 3.0, 12.0))  # behind the eye (z 5)
+    params = Confetti().params
+    eye, target = np.array(params.eye), np.array(params.target)
+    behind = _picture(gl, shafts="on",  # on the view's axis behind the eye: its mirror, centred
+                      shaft_light=tuple(eye + 0.5 * (eye - target)))
     front = _picture(gl, shafts="on")
     assert np.array_equal(behind, plain)
     assert (front - plain).mean() > 5
@@ -171,6 +225,22 @@ def _cli(*words):
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         code = main(list(words))
     return code, err.getvalue().strip().splitlines()
+
+
+@pytest.mark.gl
+def test_a_light_far_off_the_screen_is_warned_of_in_one_line(tmp_path):
+    """The 3D collision's lamp hangs 0.59 picture heights above the picture: its shafts barely
+    show, and the run says so in one line naming --shaft-light; confetti's light behind the
+    column, in view, gives no warning."""
+    out = tmp_path / "x.png"
+    code, lines = _cli("run", "collision3d", "--shadows", "on", "--shafts", "on", "--size",
+                       "32x32", "--particles", "256", "--steps", "2", "--out", str(out))
+    warned = [line for line in lines if "warning" in line]
+    assert code == 0 and len(warned) == 1 and "--shaft-light" in warned[0], lines
+    assert "0.59 picture heights off the screen" in warned[0]
+    code, lines = _cli("run", "confetti", "--shafts", "on", "--size", "32x32", "--particles",
+                       "256", "--steps", "2", "--out", str(out))
+    assert code == 0 and not [line for line in lines if "warning" in line], lines
 
 
 @pytest.mark.parametrize("words, named", [

@@ -11,7 +11,8 @@ import warnings
 
 import numpy as np
 
-from ..errors import Es2ParticlesError, NothingDrawnWarning, ParameterError, check_range
+from ..errors import (Es2ParticlesError, FaintWarning, NothingDrawnWarning, ParameterError,
+                      check_range)
 from ..io.nesting import check_nesting
 from . import memory
 from .executor import Executor
@@ -153,6 +154,9 @@ class Pipeline:
         sprites = [s for s in self.plan.frame_stages if s.kind == "sprites"]
         self._unlit_check = sprites[0] if sprites and ctx.device.draws and \
             sprites[0].target.resource == self.plan.present else None
+        if self.plan.camera is not None:
+            for message in self.plan.rendering.warnings(self.camera(0, 1), self.size):
+                warnings.warn(message, FaintWarning, stacklevel=2)
 
     # -- the frame loop ----------------------------------------------------------------------------
 

@@ -543,3 +543,8 @@ class Rendering:
 
     def plan(self, b, defaults):
         raise NotImplementedError
+
+    def warnings(self, camera, size):
+        """Why a feature switched on may barely show in a picture of ``size`` seen by ``camera``:
+        one line each (none by default)."""
+        return ()

@@ -43,6 +43,7 @@ SEGMENTS = 16  # decay and weight are per 1/16 of the ray
 GLOW = 0.25  # the light's glow, exp(-(d / GLOW)^2), d in picture heights from the light
 COLOUR = (1.0, 0.9, 0.72)  # the light's colour
 FADE = 0.25  # the shafts fade out as the cosine of the light's angle off the view falls below this
+REACH = 0.25  # a light further off the screen (picture heights) is warned of: faint shafts
 REFERENCE_TAPS = 1024
 MAX_TAPS, MAX_PASSES = 128, 4
 
@@ -85,9 +86,31 @@ class Shafts:
     def taps_a_pixel(self):
         return self.taps * self.passes
 
+    def warnings(self, camera, size):
+        """One line where the light's point lies more than REACH picture heights off the screen
+        seen by ``camera`` (nothing off the screen gives light, and its glow is faint there)."""
+        if self.light is None:
+            return ()
+        w, h = size
+        clip = camera.matrix(w / h) @ np.array([*self.light, 1.0])
+        if clip[3] <= 0:
+            return (f"the shafts' light {_point(self.light)} is behind the camera: no shafts; "
+                    "place it in view with --shaft-light X,Y,Z",)
+        x, y = (clip[:2] / clip[3] + 1) / 2
+        off = max(max(0.0, -x, x - 1) * w / h, max(0.0, -y, y - 1))
+        if off <= REACH:
+            return ()
+        return (f"the shafts' light {_point(self.light)} is {off:.2g} picture heights off the "
+                f"screen: its shafts barely show (light comes only from the screen, the glow "
+                f"falls off over {GLOW:g}); place it in view with --shaft-light X,Y,Z",)
+
     def schedule(self):
         """:func:`shaft_schedule` of these shafts."""
         return shaft_schedule(self.taps, self.passes, self.decay, self.weight, self.exposure)
+
+
+def _point(p):
+    return "(" + ", ".join(f"{v:g}" for v in p) + ")"
 
 
 def shaft_schedule(taps, passes, decay, weight=1.0, exposure=1.0):

@@ -1,0 +1,82 @@
+"""Light shafts: the error of tap structures against the 1,024-tap reference, and their time.
+
+Each row draws the same confetti frame (the shafts streaming from behind the falling column) with
+one structure, and compares the picture with the reference's, made here: mean and largest
+difference in codes of the 8-bit picture, the share of pixels more than 4 codes off, and the
+milliseconds of the shafts' stages alone (occluders, passes, composite; the median of 5 after a
+warm-up). The structures: the article's author (3 chained passes of 4 taps at a quarter of the
+resolution), PavelDoGreat's 16 taps, three.js's 3 passes of 6, Babylon.js's 100, and ours. They
+take our sampling of the one shaft integral (render/shafts.py), not the peers' exact shaders: what
+is compared is how taps, passes and resolution trade error for time. docs/shafts.md quotes it.
+
+    python benchmarks/shafts.py [--size 512] [--particles 4096]
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from es2particles import open_context
+from es2particles.frame.pipeline import Pipeline
+from es2particles.scenes.confetti import Confetti
+
+STRUCTURES = {
+    "the author's: 3 x 4 taps at 1/4": dict(shaft_taps=4, shaft_passes=3, shaft_scale=0.25,
+                                            shaft_jitter="off"),
+    "PavelDoGreat's: 16 taps": dict(shaft_taps=16, shaft_passes=1, shaft_jitter="off"),
+    "16 taps, jittered": dict(shaft_taps=16, shaft_passes=1),
+    "three.js's: 3 x 6 taps at 1/2": dict(shaft_taps=6, shaft_passes=3, shaft_scale=0.5,
+                                          shaft_jitter="off"),
+    "Babylon.js's: 100 taps": dict(shaft_taps=100, shaft_passes=1, shaft_jitter="off"),
+    "3 x 8 taps at 1/2, jittered": dict(shaft_taps=8, shaft_passes=3, shaft_scale=0.5),
+    "ours (default): 2 x 12 taps, jittered": {},
+    "2 x 12 taps": dict(shaft_jitter="off"),
+}
+
+
+def picture(ctx, size, particles, **options):
+    """The confetti frame with ``options``, and the shafts' stages' milliseconds."""
+    with Pipeline(ctx, Confetti(**options), particles=particles, size=size, steps=120) as p:
+        next(p.frames())
+        image = p.image().astype(float)
+        stages = [s for s in p.plan.stages if s.kind == "shafts"]
+        frame = p.executor.frame(p.camera(0, 1))
+        times = []
+        for _ in range(6):
+            ctx.finish()
+            start = time.perf_counter()
+            for stage in stages:
+                p.executor.run(stage, frame)
+            ctx.finish()
+            times.append(time.perf_counter() - start)
+        return image, 1e3 * float(np.median(times[1:]))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=512)
+    parser.add_argument("--particles", type=int, default=4096)
+    args = parser.parse_args(argv)
+    size = (args.size, args.size)
+    with open_context() as ctx:
+        reference, reference_ms = picture(ctx, size, args.particles, shafts="reference")
+        plain, _ = picture(ctx, size, args.particles)
+        print(f"Confetti at {args.size}x{args.size}, {args.particles} particles, on "
+              f"{ctx.caps.renderer}; the shafts change the picture by "
+              f"{np.abs(reference - plain).mean():.1f} codes on average.\n")
+        print("| structure | taps a pixel | samples a ray | mean error (codes) | largest | "
+              "pixels > 4 codes off | ms |")
+        print("|---|---|---|---|---|---|---|")
+        print(f"| reference: 1,024 taps | 1024 | 1024 | 0 | 0 | 0 | {reference_ms:.1f} |")
+        for name, options in STRUCTURES.items():
+            image, ms = picture(ctx, size, args.particles, shafts="on", **options)
+            taps = options.get("shaft_taps", 12)
+            passes = options.get("shaft_passes", 2)
+            d = np.abs(image - reference).max(axis=2)
+            print(f"| {name} | {taps * passes} | {taps ** passes} | {d.mean():.2f} | "
+                  f"{d.max():.0f} | {np.mean(d > 4):.3%} | {ms:.1f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -83,12 +83,13 @@ def check_folder(folder, parameter):
     if not existing.is_dir():
         raise ParameterError(f"{parameter}: {str(existing)!r} is a file, not a folder")
     # Try it: permissions say nothing of a read-only file system, /proc, or root's rights.
-    # SIGINT is held off meanwhile: one landing between the probe's creation and its removal
-    # left it behind (a fresh clone's CI, once).
+    # SIGINT and SIGTERM are held off meanwhile: one landing between the probe's creation and
+    # its removal left it behind (a fresh clone's CI, once each).
     import signal
 
     held = hasattr(signal, "pthread_sigmask")
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT}) if held else None
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}) \
+        if held else None
     try:
         with tempfile.NamedTemporaryFile(dir=existing, prefix=".es2particles-probe-"):
             pass

@@ -472,10 +472,8 @@ def run_of(args):
         if base.scene != args.scene:
             raise ParameterError(f"--config {args.config!r} is a run of {base.scene}, not "
                                  f"{args.scene}")
-    typed = {name: getattr(args, name) for name in
-             ("particles", "size", "format", "rounding", "steps", "seed", "point_size",
-              "intensity", "exposure", "accumulate", "gradient", "vertex_fetch")
-             if hasattr(args, name)}
+    typed = {name: getattr(args, name) for name in SETTINGS
+             if name not in BLOOM_PARTS and hasattr(args, name)}
     settings = {name: value if SETTINGS[name].text else SETTINGS[name].convert(
                     value, SETTINGS[name].flag_name)
                 for name, value in typed.items() if value is not None}
@@ -520,6 +518,9 @@ def _check_animation(run):
     if run.frames == 1 and run.options.get("camera") == "orbit":
         raise ParameterError("--camera orbit circles the target over an animation's frames: "
                              "give --frames F (2 or more) with it; a still has one camera")
+    if run.frames == 1 and run.settings.get("trails", "off") != "off":
+        raise ParameterError("--trails: a trail is the frames before a frame: give --frames F "
+                             "(2 or more) with it; a still has none")
 
 
 def _number(text, option):
@@ -639,8 +640,8 @@ def _run(args):
         args.save_config, "--save-config", {".toml": "TOML"})
     load_path = None if args.load_state is None else check_input(args.load_state,
                                                                   "--load-state")
-    _note_static_animation(run, frames)
     scene = run.check()
+    _note_static_animation(run, frames)  # after the checks: bad input is one line
     if frames > 1:  # before any work: the video extra, even sides
         check_video(out, parse_size(run.settings.get("size", (1024, 1024)), MAX_SIZE))
     sizes = shares.share_sizes(run, save_state=args.save_state is not None)

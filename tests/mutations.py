@@ -75,6 +75,7 @@ NLIB = "shaders/glsl100/lib/neighbours.glsl"
 ORDER = "shaders/glsl100/lib/order.glsl"
 BOIDS = "shaders/glsl100/boids/boids.frag"
 SHAFTS = "shaders/glsl100/shafts/scatter.frag"
+TRAILS = "shaders/glsl100/post/trails.frag"
 LIQUID = "shaders/glsl100/liquid/liquid.frag"
 SPH = "shaders/glsl100/sph/sph.frag"
 WIND = "shaders/glsl100/wind/fluid.frag"
@@ -397,6 +398,26 @@ MUTATIONS = (
                "gl_FragColor = vec4(0.0, 0.0, 0.0, 1.0);  // light shafts' occluder",
                "gl_FragColor = vec4(v_colour, 1.0);  // light shafts' occluder"),),
              ("tests/test_shafts.py",)),
+    # --- trails --------------------------------------------------------------------------------------
+    Mutation("trails-never-fade", "trails", "the last frame kept whole, not times the opacity",
+             ((TRAILS, "vec3 kept = max(u_keep * texture2D(u_trail, v_uv).rgb - 0.6 / 255.0, 0.0);",
+               "vec3 kept = max(texture2D(u_trail, v_uv).rgb - 0.6 / 255.0, 0.0);"),),
+             ("tests/test_trails.py",)),
+    Mutation("trails-keep-a-ghost", "trails",
+             "the fade without its 0.6 of a code: dim trails round back to themselves forever",
+             ((TRAILS, "- 0.6 / 255.0, 0.0);", "- 0.0 / 255.0, 0.0);"),),
+             ("tests/test_trails.py",)),
+    Mutation("trails-added-not-kept-brighter", "trails",
+             "the trail added to the picture, not the brighter of the two",
+             ((TRAILS, "gl_FragColor = vec4(max(texture2D(u_picture, v_uv).rgb, kept), 1.0);",
+               "gl_FragColor = vec4(min(texture2D(u_picture, v_uv).rgb + kept, 1.0), 1.0);"),),
+             ("tests/test_trails.py",)),
+    Mutation("trails-frames-drawn-alone", "trails",
+             "a reseeded scene's wanted frame drawn without the frames its trail holds",
+             (("es2particles/frame/settings.py",
+               "return bool(scene.stateless) and settings.get(\"trails\", \"off\") == \"off\"",
+               "return bool(scene.stateless)"),),
+             ("tests/test_trails.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
@@ -405,7 +426,8 @@ CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", 
              "curl-sign", "merge-keeps-larger", "life-ends-a-step-late",
              "iterations-not-ping-ponged", "wind-divergence-sign",
              "neighbour-search-past-the-cell", "boids-separation-attracts",
-             "liquid-density-linear", "shafts-sprite-opacity-inverted")
+             "liquid-density-linear", "shafts-sprite-opacity-inverted",
+             "trails-keep-a-ghost")
 
 
 def make_copy(folder):

@@ -284,6 +284,33 @@ def test_an_animated_page_draws_the_run_s_frames(gl, browser, tmp_path):
     assert np.array_equal(page[frames + 3], run[-1])
 
 
+def test_a_page_s_trails_fade_as_egl_s(gl, browser, tmp_path):
+    """--trails fade:0.8 over an animated reseeded de Jong: the page keeps its trail from frame to
+    frame as the run does (a pair of targets swapped after each draw), so its picture after a
+    middle and the last frame is EGL's, the trail's codes within one (the density's paths
+    round the tone map alike, not the blend of a fading float)."""
+    scene = DeJong(reseed=True, animate_to=(1.9, -2.1, 2.2, -1.8))
+    n, size, frames = 2 ** 14, (128, 128), 6
+    settings = dict(particles=n, size=size, steps=1, bloom=None, trails="fade:0.8")
+    with Pipeline(gl, scene, **settings) as pipeline:
+        egl = [pipeline.image() for _ in pipeline.frames(frames)]
+    with Pipeline(gl, scene, **{**settings, "trails": "off"}) as pipeline:
+        plain = [pipeline.image() for _ in pipeline.frames(frames)]
+    assert np.mean(egl[-1].astype(int) > plain[-1].astype(int) + 8) > 0.01  # a trail shows
+    page_path = tmp_path / "trails.html"
+    write_page(page_plan(scene, frames=frames, **settings), page_path)
+    for shown in (3, frames - 1):
+        page = Page(browser, page_path)
+        try:
+            assert not page.errors and not page.call("error"), page.errors
+            page.call(f"frames({shown})")
+            diff = np.abs(page.image(size).astype(int) - egl[shown].astype(int))
+            print(f"frame {shown}: {np.mean(diff == 0):.3%} of codes equal, largest {diff.max()}")
+            assert diff.max() <= 1
+        finally:
+            page.close()
+
+
 def test_an_animated_page_s_sliders_follow_until_a_hand_takes_one(gl, browser, tmp_path):
     """The sliders show the animated coefficients frame by frame; a slider moved takes its
     coefficient from the animation for good, the others keeping the values they had: the

@@ -37,6 +37,7 @@ VALUES = {
     "--steps": "37",
     "--seed": "9",
     "--accumulate": "3",
+    "--trails": "fade:0.9",  # refused on a still: the walk draws stills
     "--bound": "1",  # a loop's cap acts where a row of 3 cells holds more: refused
 }
 # Options whose contract is the same picture and state by another path (their own tests

@@ -17,7 +17,8 @@ RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-fr
                "--fps", "--save-state", "--load-state", "--workers", "--scheduler",
                "--worker-timeout"}
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
-COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size"}
+COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size",
+          "--trails"}
 DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",
                 "--bloom-threshold", "--bloom-radius", "--bloom-intensity", "--vertex-fetch"}
 

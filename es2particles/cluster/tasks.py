@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import Es2ParticlesError, ParameterError
+from ..frame.settings import frames_independent
 
 _local = threading.local()
 GROUPS_PER_WORKER = 4  # tasks a worker (share groups, runs of frames): the load evens out, and
@@ -414,8 +415,10 @@ def animation(client, run, out, worker_timeout=WORKER_TIMEOUT):
     if missing:
         scene = run.make_scene()
         # Reseeded frames need nothing before them: a few runs a worker even out the load. A
-        # stateful run steps from the start, so one run a worker (each catches up alone).
-        parts = GROUPS_PER_WORKER * workers(client) if scene.stateless else workers(client)
+        # stateful run (or one with trails) steps from the start, so one run a worker (each
+        # catches up alone).
+        parts = (GROUPS_PER_WORKER * workers(client) if frames_independent(scene, run.settings)
+                 else workers(client))
         parts = [r.tolist() for r in np.array_split(missing, min(len(missing), parts))]
         futures = [client.submit(frames_task, run, part, pure=False) for part in parts]
 

@@ -17,7 +17,7 @@ from ..io.nesting import check_nesting
 from . import memory
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
-from .settings import DEFAULT, Defaults, FrameSettings, parse_size
+from .settings import DEFAULT, Defaults, FrameSettings, frames_independent, parse_size
 from .simulation import Simulation
 
 STEPS_LIMIT = 2 ** 53  # a saved step count beyond any run's (float64 counts it exactly)
@@ -90,7 +90,7 @@ class Pipeline:
     ctx : Context
     scene : Scene
     particles, size, fmt, point_size, intensity, exposure, gradient, bloom, seed, rounding,
-    steps, accumulate, vertex_fetch, share
+    steps, accumulate, vertex_fetch, trails, share
         The :class:`~es2particles.frame.settings.FrameSettings` (``fmt`` is its ``format``), as
         keywords; or ``settings``, a FrameSettings. ``gradient`` None is grey and ``bloom``
         None is off; any other None is the default. ``accumulate``: samples summed into each
@@ -111,14 +111,14 @@ class Pipeline:
     def __init__(self, ctx, scene, particles=DEFAULT, size=DEFAULT, fmt=DEFAULT,
                  point_size=DEFAULT, intensity=DEFAULT, exposure=DEFAULT, gradient=DEFAULT,
                  bloom=DEFAULT, seed=DEFAULT, rounding=DEFAULT, steps=DEFAULT,
-                 accumulate=DEFAULT, vertex_fetch=DEFAULT, share=None, settings=None,
-                 animation=None):
+                 accumulate=DEFAULT, vertex_fetch=DEFAULT, trails=DEFAULT, share=None,
+                 settings=None, animation=None):
         self.executor = self.sim = None
         given = {name: value for name, value in dict(
             particles=particles, size=size, format=fmt, point_size=point_size,
             intensity=intensity, exposure=exposure, gradient=gradient, bloom=bloom, seed=seed,
             rounding=rounding, steps=steps, accumulate=accumulate,
-            vertex_fetch=vertex_fetch).items()
+            vertex_fetch=vertex_fetch, trails=trails).items()
             if value is not DEFAULT}
         if share is not None:
             given["share"] = share
@@ -154,9 +154,7 @@ class Pipeline:
         sprites = [s for s in self.plan.frame_stages if s.kind == "sprites"]
         self._unlit_check = sprites[0] if sprites and ctx.device.draws and \
             sprites[0].target.resource == self.plan.present else None
-        if self.plan.camera is not None:
-            for message in self.plan.rendering.warnings(self.camera(0, 1), self.size):
-                warnings.warn(message, FaintWarning, stacklevel=2)
+        self._faint_check = self.plan.camera is not None  # the first frame's, by its camera
 
     # -- the frame loop ----------------------------------------------------------------------------
 
@@ -167,7 +165,7 @@ class Pipeline:
         first) and draw it; yields each frame's number once it is drawn (``image()`` reads it).
 
         ``wanted``: the frames a caller needs (None: all). A stateless scene's frames need
-        nothing before them, so only those are drawn; any other scene's frames need every step
+        nothing before them (without trails), so only those are drawn; any other's need every step
         and frame before them, so those up to the last wanted one are run and only the wanted
         ones yielded."""
         frames = int(check_range("frames", frames, 1, None, integer=True))
@@ -177,7 +175,8 @@ class Pipeline:
                                  f"{wanted[0]}..{wanted[-1]}")
         scene = self.scene
         self.begin(frames, warm_up)
-        visit = wanted if scene.stateless else range((wanted[-1] + 1) if len(wanted) else 0)
+        visit = wanted if frames_independent(scene, self.settings) else range(
+            (wanted[-1] + 1) if len(wanted) else 0)
         keep = set(wanted)
         for frame in visit:
             if frame:
@@ -222,6 +221,10 @@ class Pipeline:
         and its motion's model matrix."""
         self._use()
         env = self.executor.frame(camera or self.camera(frame, frames), model)
+        if self._faint_check:
+            self._faint_check = False
+            for message in self.plan.rendering.warnings(env.camera, self.size):
+                warnings.warn(message, FaintWarning, stacklevel=2)
         self._read = None
         bare = self._draw_without_sprites(env) if self._unlit_check is not None else None
         self._order_points()

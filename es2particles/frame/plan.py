@@ -33,7 +33,7 @@ from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import IDENTITY
 from .settings import (COMMON_SETTINGS, MAX_STEPS, FrameSettings, check_rounding,
-                       check_settings, parse_size, resolve_format)
+                       check_settings, parse_size, parse_trails, resolve_format)
 from .state import Layout
 
 # --- frame values -------------------------------------------------------------------------------
@@ -474,6 +474,9 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     plan_simulation(b, graph, outputs, b.setting("particles", defaults.particles),
                     b.setting("format", "rgba8"), b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)
+    trails, opacity = parse_trails(b.setting("trails", "off"))
+    if trails == "fade":
+        present = plan_fade_trails(b, present, opacity)
     culled = _cull(b.stages, present)
     b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
                    for s in b.stages if s.name in culled]
@@ -488,6 +491,20 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     dt=scene.time_step(b.setting("particles", defaults.particles)),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
+
+
+def plan_fade_trails(b, present, opacity):
+    """Screen-space trails over the presented picture: a pair of targets kept from frame to
+    frame, each frame the brighter of the new picture and the last frame's times ``opacity``
+    less half a code (``post/trails.frag``). Returns the new presented resource."""
+    w, h = b.resources[present].size
+    b.resource(Resource("trails", "target", (w, h), "rgba8", buffers=2, swap="draw",
+                        linear=True, what="the picture with the frames before it fading"))
+    b.stage(Stage("trails", "post", "post/trails.frag",
+                  inputs={"u_picture": Ref(present), "u_trail": Ref("trails")},
+                  target=Ref("trails"), uniforms={"u_keep": float(opacity)},
+                  what=f"the brighter of the picture and the last frame's times {opacity:g}"))
+    return "trails"
 
 
 def scene_graph(scene, caps, count=None):

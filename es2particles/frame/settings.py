@@ -43,7 +43,7 @@ OPTIONS = {"particles": "--particles", "size": "--size", "format": "--format",
            "rounding": "--rounding", "steps": "--steps", "point_size": "--point-size",
            "intensity": "--intensity", "exposure": "--exposure", "gradient": "--gradient",
            "bloom": "--no-bloom/--bloom-*", "accumulate": "--accumulate", "seed": "--seed",
-           "vertex_fetch": "--vertex-fetch"}
+           "vertex_fetch": "--vertex-fetch", "trails": "--trails"}
 
 
 @dataclass(frozen=True)
@@ -70,6 +70,7 @@ class FrameSettings:
     accumulate: object = DEFAULT
     seed: object = DEFAULT
     vertex_fetch: object = DEFAULT
+    trails: object = DEFAULT
     share: int = 0
 
     def given(self):
@@ -121,7 +122,7 @@ def check_rounding(rounding):
 
 
 # Settings every frame uses; a rendering declares the others it uses (``Rendering.settings``).
-COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed")
+COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed", "trails")
 MAX_SIZE = 2 ** 16  # no context's textures are wider: the bound of a check made before one
 MAX_ACCUMULATE = 10 ** 6
 # Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
@@ -166,11 +167,44 @@ SETTINGS = {d.name: d for d in (
              help="how the points read the state: on, vertex texture fetch (the article's "
                   "way); off, the state read back into a vertex buffer each frame (for devices "
                   "without it); auto, on where the context has vertex texture units"),
+    _setting("trails", "off", text=True, metavar="off|fade:OPACITY",
+             help="trails over an animation's frames: fade:OPACITY keeps the brighter of the new "
+                  "picture and the last frame's times OPACITY (0 to 1), less half a code, so a "
+                  "trail fades out fully (webgl-wind's screen-space fade); ribbons from each "
+                  "particle's history are not built yet"),
     _setting("bloom_threshold", 0.2, 0.0, 1.0, help="bloom luminance threshold"),
     _setting("bloom_radius", 3.0, 0.5, 4.0, help="bloom blur sigma, texels of the half level"),
     _setting("bloom_intensity", 0.8, 0.0, 10.0, help="bloom strength"),
 )}
 BLOOM_PARTS = ("bloom_threshold", "bloom_radius", "bloom_intensity")
+
+
+def parse_trails(text):
+    """``--trails`` as (kind, value): ("off", None) or ("fade", the opacity a frame keeps, in
+    (0, 1)); ribbons are refused (not built yet), as is anything else, in one line."""
+    if not isinstance(text, str):
+        raise ParameterError(f"--trails must be off or fade:OPACITY, got {text!r}")
+    kind, _, value = text.partition(":")
+    if kind == "off" and not value:
+        return "off", None
+    if kind == "fade":
+        try:
+            opacity = float(value)
+        except ValueError:
+            raise ParameterError(f"--trails fade:OPACITY takes a number, got {value!r}") from None
+        if not 0.0 < opacity < 1.0:
+            raise ParameterError(f"--trails fade:OPACITY must be in (0, 1), got {value}")
+        return "fade", opacity
+    if kind == "ribbons":
+        raise ParameterError("--trails ribbons:K: ribbons from each particle's history are not "
+                             "built yet; fade:OPACITY is")
+    raise ParameterError(f"--trails must be off or fade:OPACITY, got {text!r}")
+
+
+def frames_independent(scene, settings):
+    """Whether a frame of ``scene`` needs nothing drawn before it: a stateless (reseeded) scene
+    without trails (a trail is the frames before)."""
+    return bool(scene.stateless) and settings.get("trails", "off") == "off"
 
 
 def check_settings(settings, scene, rendering=None):
@@ -192,6 +226,8 @@ def check_settings(settings, scene, rendering=None):
     for name, value in given.items():
         if name == "size":
             parse_size(value, MAX_SIZE)
+        elif name == "trails":
+            parse_trails(value)
         elif name in SETTINGS and not SETTINGS[name].text:
             SETTINGS[name].convert(value, name)
     rendering.check_settings({n: v for n, v in given.items() if n in rendering.settings})

@@ -810,3 +810,62 @@ def test_plan_prints_the_compression_table(capsys):
     text = capsys.readouterr().out
     assert "24x24x24 voxels" in text and "astc 6x6 (atlas)" in text
     assert "astc 3x3x3 (seed, 3D)" in text and "penetration" in text
+
+
+def _slide_on_sphere(theta0, g, seconds, steps=100_000):
+    """Float64: the polar angle from the top of a frictionless sphere of radius 1 after
+    ``seconds``, released at rest at ``theta0`` (theta'' = g sin(theta) / R, RK4 in fine steps),
+    and whether it is still on the surface (it leaves where cos(theta) = 2/3 cos(theta0))."""
+    h = seconds / steps
+    theta, omega = theta0, 0.0
+    for _ in range(steps):
+        def f(t, w):
+            return w, g * np.sin(t)
+        k1 = f(theta, omega)
+        k2 = f(theta + h / 2 * k1[0], omega + h / 2 * k1[1])
+        k3 = f(theta + h / 2 * k2[0], omega + h / 2 * k2[1])
+        k4 = f(theta + h * k3[0], omega + h * k3[1])
+        theta += h / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        omega += h / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+    return theta, np.cos(theta) > 2 / 3 * np.cos(theta0)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 45 item 2, not fixed: the push-out's energy rule "
+                   "holds a particle still on a slope (turned 0.5 degrees of the model's 4.7 at "
+                   "10 degrees); capping it at the vn^2 that came in slides as the model does "
+                   "(within 8%) but lets a step gain energy at r = 1 (2D, 7.9e-3 J/kg)")
+@pytest.mark.parametrize("tilt", [10.0, 25.0, 40.0])
+def test_released_at_rest_on_a_frictionless_sphere_a_particle_slides(gl, tilt):
+    """Issue 45, item 2: with the sliding factor at its frictionless end (s = 0, r = 1), no air
+    and no kick, particles released at rest on the analytic sphere slide as a bead on a
+    frictionless sphere does (theta'' = g sin(theta) / R, integrated here in float64): after
+    0.3 s each has turned through the model's angle within 12% (the step's discretisation and the
+    field's normals, 1.9 degrees off at worst). The push-out's energy rule held them still before
+    (a few centimetres, then speed 0 at any tilt from 5 to 65 degrees): it took the push-out's
+    work from the speed the response had already turned along the surface."""
+    p = Collision3DParams(jitter=0.0, viscosity=0.0, bounce=1.0, sliding=0.0,
+                          lifetime=(400.0, 400.0))
+    scene = Collision3D(p.changed(shape="sphere:0,1,0,1"))
+    sim = Simulation(gl, scene.graph(), 1024, fmt="rgba32f")
+    try:
+        n = sim.count
+        azimuth = np.linspace(0, 2 * np.pi, n, endpoint=False)
+        theta0 = np.radians(tilt)
+        x = np.column_stack([np.sin(theta0) * np.cos(azimuth), 1 + np.cos(theta0) + 0 * azimuth,
+                             np.sin(theta0) * np.sin(azimuth)])
+        sim.upload("position", x)
+        sim.upload("velocity", np.zeros((n, 3)))
+        sim.upload("life", np.tile([1.0, 300.0], (n, 1)))
+        steps = int(round(0.3 / p.dt))
+        sim.run(steps)
+        x = sim.download("position")
+        r = x - np.array([0.0, 1.0, 0.0])
+        theta = np.arccos(np.clip(r[:, 1] / np.linalg.norm(r, axis=1), -1, 1))
+        want, on = _slide_on_sphere(theta0, -p.gravity[1], steps * p.dt)
+        assert on
+        turned = theta - theta0
+        print(f"tilt {tilt:g}: turned {np.degrees(np.median(turned)):.2f} degrees (model "
+              f"{np.degrees(want - theta0):.2f}), spread {np.degrees(np.ptp(turned)):.2f}")
+        assert np.all(np.abs(turned - (want - theta0)) < 0.12 * (want - theta0))
+    finally:
+        sim.release()

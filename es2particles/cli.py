@@ -215,20 +215,44 @@ def _warnings_as_lines():
     return lambda: setattr(warnings, "showwarning", previous)
 
 
+def _in_finalizer(frame):
+    """Whether ``frame`` runs inside an object's finalizer (``__del__``, a weakref.finalize)."""
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "__del__" or (code.co_name == "__call__"
+                                         and code.co_filename.endswith("weakref.py")):
+            return True
+        frame = frame.f_back
+    return False
+
+
 def _terminate_as_interrupt():
     """SIGTERM unwinds like Ctrl-C while the command runs, so partly written files are removed
     (an animation's hidden .part file stayed behind after a kill); returns what restores the
-    previous handler."""
+    previous handlers. A signal landing inside a finalizer (a GL object's ``__del__`` in a
+    collection) is delivered a few milliseconds later, once out of it: an exception raised there
+    is printed and swallowed, and a run went on to exit 0 under a traceback."""
     import signal
     import threading
 
+    pending = []
+
     def interrupt(signum, frame):
+        if _in_finalizer(frame):
+            pending.append(signum)
+            signal.setitimer(signal.ITIMER_REAL, 0.005)
+            return
         raise KeyboardInterrupt
+
+    def again(signum, frame):
+        if pending:
+            interrupt(pending.pop(), frame)
 
     if threading.current_thread() is not threading.main_thread():
         return lambda: None
-    previous = signal.signal(signal.SIGTERM, interrupt)
-    return lambda: signal.signal(signal.SIGTERM, previous)
+    previous = {sig: signal.signal(sig, handler) for sig, handler in (
+        (signal.SIGTERM, interrupt), (signal.SIGINT, interrupt), (signal.SIGALRM, again))}
+    return lambda: [signal.signal(sig, handler) for sig, handler in previous.items()]
 
 
 # A value that starts with '-' and looks like a number (-inf, -nan, -1e3, -5x5) but not like one

@@ -204,3 +204,29 @@ def test_the_program_exits_with_main_s_status_and_says_everything(tmp_path):
     assert bad.returncode == 2
     assert bad.stderr.startswith("es2particles: error: --particles must be in [1, ")
     assert bad.stderr.endswith("], got 0\n") and bad.stderr.count("\n") == 1
+
+
+def test_a_signal_inside_a_finalizer_interrupts_once_out_of_it():
+    """SIGTERM landing while a finalizer runs (a GL object's __del__ in a collection) interrupts
+    the command just after it: raised inside it, the KeyboardInterrupt was printed and swallowed,
+    and a run went on to exit 0 under a traceback (the interrupt test, once in a suite)."""
+    import os
+    import signal
+    import time
+
+    from es2particles.cli import _terminate_as_interrupt
+
+    class Dying:
+        def __del__(self):
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(10000):  # the handler runs here, inside __del__
+                pass
+
+    restore = _terminate_as_interrupt()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            dying = Dying()
+            del dying
+            time.sleep(1.0)
+    finally:
+        restore()

@@ -3,9 +3,10 @@ recording context for the executor's call stream, and the test tiers.
 
 Tiers (markers, registered in pyproject.toml): ``gl`` needs a GL context (every test that takes
 the ``ctx`` or ``gl`` fixture is marked here; a module that opens contexts itself marks itself),
-``browser`` needs Chromium, ``slow`` takes more than a few seconds. ``pytest -m "not gl and not
-browser"`` is the fast tier: plans, bindings, the executor on a recording device, numpy twins and
-the command line's refusals, with no GL library loaded. The README's test command runs them all.
+``browser`` needs Chromium, ``slow`` takes half a second or more. ``pytest -m "not gl and not
+browser and not slow"`` is the fast tier: plans, bindings, the executor on a recording device,
+numpy twins and the command line's refusals, with no GL library loaded. The README's test
+command runs them all.
 
 A tool a test needs and lacks (glslang, astcenc, Chromium...) is a skip, or under CI a failure
 (``missing``). Tests write under their tmp_path only: a session that made, changed or removed a

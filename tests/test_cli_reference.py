@@ -51,6 +51,7 @@ def section(text, scene):
     return match.group(1)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", list(BUILT_IN))
 def test_every_option_of_run_help_is_in_the_scene_s_section(scene):
     result = subprocess.run([sys.executable, "-m", "es2particles", "run", scene, "--help"],

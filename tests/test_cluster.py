@@ -207,6 +207,7 @@ def http_server(folder):
 NO_ANSWER = f"no Dask scheduler answered in {CONNECT_TIMEOUT} s"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("address, says", [
     # Nothing listens on port 1: '(Connection refused)' follows where Dask's last try said so
     # (one cut short by the timeout says nothing).
@@ -246,6 +247,7 @@ def test_every_scheduler_address_that_fails_is_one_line(tmp_path, capfd, address
     assert list(out.parent.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_scheduler_address_that_fails_is_one_line_from_the_command(tmp_path):
     """The installed command, as a user runs it: tls:// without certificates ended in a
     51-line traceback."""

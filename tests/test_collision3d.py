@@ -117,6 +117,7 @@ def test_bad_shapes_are_named(spec, message):
         parse_shapes(spec)
 
 
+@pytest.mark.slow
 def test_mesh_field_matches_the_sphere_it_approximates():
     """A closed mesh (an icosphere of radius 1, scaled to 2 m across) through the voxel mask and
     the exact distance transform: within a voxel of the sphere's distance (the mask rounds the

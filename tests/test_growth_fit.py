@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 from growth import fit  # noqa: E402
@@ -36,6 +37,7 @@ def test_a_known_bend_and_its_slopes_are_recovered():
             f"noise {scale}: slopes {f.before:.3f} -> {f.after:.3f}, want 0.1 -> 1.0"
 
 
+@pytest.mark.slow
 def test_a_pure_power_law_has_its_exponent_and_no_bend():
     # 10% noise is what the rule's 10% line RMS sits at: the exponent within 0.03 all the same.
     for exponent in (0.0, 1.0, 2.0):

@@ -77,6 +77,7 @@ def test_same_arguments_same_image(gl):
     assert not np.array_equal(render(gl, seed=3), render(gl, seed=4))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("size", [0, 100, 2 ** 20 - 1, 2 ** 21 + 7, 5 * 2 ** 20 + 3])
 def test_deflate_in_pieces_inflates_to_the_same_bytes(size):
     """Large data is deflated in pieces on threads and joined into one zlib stream: the standard

@@ -152,6 +152,7 @@ def test_frames_without_animate_to_get_a_note(tmp_path, capsys):
     assert "--frames without --animate-to" not in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_long_warm_up_shows_progress_and_runs_every_step(capsys):
     import time
     from types import SimpleNamespace
@@ -252,6 +253,7 @@ def _refused(declaration, value):
     return False
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene", ["dejong", "clifford", "collision", "fountain", "collision3d",
                                    "confetti", "smoke"])
 def test_every_number_of_every_scene_is_refused_alike_before_a_context(scene, tmp_path, capsys,
@@ -301,6 +303,7 @@ def test_the_stated_typical_costs_are_the_defaults(scene):
         assert cls().cost() == cls.typical_cost
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scene, arguments, said", [
     ("collision3d", ["--shape", "sphere:0,1,0,0.01"], "1,956 sub-steps a step: 98x the 20"),
     ("collision3d", ["--field-resolution", "160"], "4,096,000 field cells: 16x the 262,144"),

@@ -205,6 +205,7 @@ def limited(argv, logs, limit=LIMIT, cwd=None):
         return process.returncode, out.read(), err.read(), int(peak_file.read_text()), seconds
 
 
+@pytest.mark.slow
 def test_a_pipeline_refuses_before_it_makes_anything(tmp_path):
     """No GL: a pipeline over a recording device, 2^26 particles under a 4 GiB address-space
     limit (its start alone is 4 GiB of float64): refused, with nothing made."""

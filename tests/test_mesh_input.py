@@ -138,6 +138,7 @@ def test_a_folder_is_named_as_a_folder(tmp_path, capsys, monkeypatch, scene, nam
     assert f"{label.format(repr(str(folder)))} is a folder, not a file" in err, err
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 @pytest.mark.parametrize("scene, name, label", [("collision3d", "shape.stl", "mesh file {}"),
                                                 ("collision", "mask.png", "--shape (a mask): {}")])
@@ -160,6 +161,7 @@ def large_triangles(count=300, seed=0):
     return np.random.default_rng(seed).uniform(-1, 1, (count, 3, 3))
 
 
+@pytest.mark.slow
 def test_300_large_triangles_at_resolution_256_are_refused_fast(tmp_path):
     """A 15 KB STL whose triangles, cut to a quarter voxel, are ~160 million points: it died of a
     MemoryError after minutes. Now estimated from the triangles before any voxel and refused in
@@ -208,6 +210,7 @@ def test_a_run_beyond_the_memory_available_is_refused(tmp_path, capsys, monkeypa
     assert "more than the 0.2 GB of memory available: lower --field-resolution to " in err, err
 
 
+@pytest.mark.slow
 def test_the_estimate_bounds_the_points_made():
     """TriangleMesh.surface_points against trimesh's subdivision, one triangle at a time (random
     ones, slivers and needles among them): within the measured 0.19 to 2.75 times, so that
@@ -232,6 +235,7 @@ def test_the_estimate_bounds_the_points_made():
                                                                             max(ratios))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["icosphere.obj", "dome.obj", "tetrahedron.obj"])
 def test_runs_of_triangles_make_the_mask_the_whole_mesh_makes(tmp_path, monkeypatch, name):
     """The voxeliser subdivides a run of triangles at a time (here runs of a few triangles, so
@@ -289,6 +293,7 @@ def test_a_good_mesh_still_runs(tmp_path, capsys):
     assert out.stat().st_size > 0
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
 def test_files_a_mesh_names_are_never_opened(tmp_path):
     """Issue 44, item 2: an OBJ whose mtllib named a FIFO blocked forever in open(). The mesh is

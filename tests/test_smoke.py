@@ -536,6 +536,7 @@ def test_over_blending_needs_back_to_front(gl):
 
 # -- the scene, end to end -----------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_cli_errors_are_one_line(tmp_path):
     import subprocess
     import sys

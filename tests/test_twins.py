@@ -199,6 +199,7 @@ def run_free_flight(twin, k):
     return x0, v0, g, dt, steps, None, x, v, steps
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("k", DRAG_RATES)
 @pytest.mark.parametrize("twin", ["collision", "collision3d", "fountain"])
 def test_free_flight_follows_the_closed_form(twin, k):
@@ -424,6 +425,7 @@ def check_resting(heights, speeds, g, allowance, rounding):
         "not at rest on the floor in the end")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("floor", ["field", "scene floor"])
 def test_a_particle_rests_on_a_2d_floor(floor):
     p = CollisionParams(emit=False, bounce=0.6, sliding=0.5)  # gravity 3 down, drag 0.05
@@ -442,6 +444,7 @@ def test_a_particle_rests_on_a_2d_floor(floor):
     assert np.abs(x[:, 0] - places).max() <= float64_drift(RESTING_STEPS, 1.0), "crept"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("floor", ["field", "scene floor"])
 def test_a_particle_rests_on_a_3d_floor(floor):
     scene, top, allowance, place = floor_3d(floor)  # gravity 9.81 down, r = s = 0.5, air's drag
@@ -464,6 +467,7 @@ def test_a_particle_rests_on_a_3d_floor(floor):
         RESTING_STEPS, 4.0), "crept"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("r, height", [(0.5, 0.0), (1.0, 1.0)])
 def test_the_fountain_floor_gives_no_energy(r, height):
     """Semi-implicit Euler loses g^2 dt^2 / 2 a step in flight, and a bounce with r <= 1 keeps
@@ -518,6 +522,7 @@ def check_side_of_entry(start, x, v, allowance):
     assert np.all(v[:, 0] * start["v"][:, 0] < 0), "every particle must have met its wall"
 
 
+@pytest.mark.slow
 def test_thin_walls_in_2d_are_left_by_the_side_of_entry():
     """Walls half a cell and one cell thick, each at 64 offsets across a cell, met from both sides
     at speeds up to the velocity range's corner (8, 8): a cell of such a wall can hold its far
@@ -553,6 +558,7 @@ def slab_field(field, a, b):
     return np.maximum(a - x, x - b).astype(np.float32), normal.astype(np.float32)
 
 
+@pytest.mark.slow
 def test_thin_walls_in_3d_are_left_by_the_side_of_entry():
     """A slab one voxel thick (the 3D rule acts from a quarter voxel deep, for walls a voxel
     thick or more: docs/scenes/collision3d.md) at 64 offsets across a voxel, met from both sides
@@ -609,6 +615,7 @@ def test_no_2d_substep_moves_more_than_half_a_cell(monkeypatch, changes):
     assert longest <= field.cell / 2 + float64_drift(1, 1.0), f"{longest / field.cell:.3f} cells"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("changes", [{}, {"dt": 0.05}, {"scale": 2.0},
                                      {"spin": (200.0, 0.0, 0.0, 1.0)},
                                      {"sway": (0.3, 0.2, 0.0, 0.5)}])

@@ -203,3 +203,16 @@ def run_scene(gl, scene, count, steps, seed, rounding=None):
         start = sim.download("position")
         sim.run(steps)
         return start, sim.download("position")
+
+
+def command(*words):
+    """The command line run in this process: (exit status, the lines it wrote to stderr)."""
+    import contextlib
+    import io
+
+    from es2particles.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(list(words))
+    return code, err.getvalue().strip().splitlines()

@@ -3,14 +3,12 @@ enumerated here, the reference shafts against a float64 brute-force integral ove
 the GL drew, the error of tap structures against the reference (the docs' table), a light behind
 the camera, and the options' refusals."""
 
-import contextlib
-import io
 import itertools
 
 import numpy as np
 import pytest
 
-from es2particles.cli import main
+from conftest import command
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.shafts import COLOUR, GLOW, RAY, SEGMENTS, shaft_schedule
 from es2particles.scenes.confetti import Confetti
@@ -220,25 +218,18 @@ def test_the_error_of_tap_structures_against_the_reference(gl):
     assert errors["ours"] <= 1.0 < min(errors["author 3x4 at 1/4"], errors["16 taps"])
 
 
-def _cli(*words):
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(list(words))
-    return code, err.getvalue().strip().splitlines()
-
-
 @pytest.mark.gl
 def test_a_light_far_off_the_screen_is_warned_of_in_one_line(tmp_path):
     """The 3D collision's lamp hangs 0.59 picture heights above the picture: its shafts barely
     show, and the run says so in one line naming --shaft-light; confetti's light behind the
     column, in view, gives no warning."""
     out = tmp_path / "x.png"
-    code, lines = _cli("run", "collision3d", "--shadows", "on", "--shafts", "on", "--size",
+    code, lines = command("run", "collision3d", "--shadows", "on", "--shafts", "on", "--size",
                        "32x32", "--particles", "256", "--steps", "2", "--out", str(out))
     warned = [line for line in lines if "warning" in line]
     assert code == 0 and len(warned) == 1 and "--shaft-light" in warned[0], lines
     assert "0.59 picture heights off the screen" in warned[0]
-    code, lines = _cli("run", "confetti", "--shafts", "on", "--size", "32x32", "--particles",
+    code, lines = command("run", "confetti", "--shafts", "on", "--size", "32x32", "--particles",
                        "256", "--steps", "2", "--out", str(out))
     assert code == 0 and not [line for line in lines if "warning" in line], lines
 
@@ -256,6 +247,6 @@ def test_a_light_far_off_the_screen_is_warned_of_in_one_line(tmp_path):
 ])
 def test_bad_shaft_options_are_one_line(tmp_path, words, named):
     out = tmp_path / "x.png"
-    code, lines = _cli("run", "fountain", "--size", "32x32", *words, "--out", str(out))
+    code, lines = command("run", "fountain", "--size", "32x32", *words, "--out", str(out))
     assert code == 2 and len(lines) == 1 and named in lines[0], lines
     assert not out.exists()

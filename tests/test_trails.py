@@ -2,13 +2,11 @@
 fade:OPACITY against the same run's frames without, through the recurrence written here in
 float64; a trail that fades out fully where a plain fade keeps a ghost; the refusals."""
 
-import contextlib
-import io
 
 import numpy as np
 import pytest
 
-from es2particles.cli import main
+from conftest import command
 from es2particles.frame.pipeline import Pipeline
 from es2particles.scenes.dejong import DeJong
 
@@ -72,13 +70,6 @@ def test_a_trail_fades_out_fully_where_a_plain_fade_keeps_a_ghost():
     assert plain == 16
 
 
-def _cli(*words):
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-        code = main(list(words))
-    return code, err.getvalue().strip().splitlines()
-
-
 @pytest.mark.parametrize("words", [
     ["--trails", "fade:0.9"],  # a still
     ["--trails", "fade:1.5", "--frames", "3"],
@@ -89,6 +80,6 @@ def _cli(*words):
 ])
 def test_bad_trails_are_one_line(tmp_path, words):
     out = tmp_path / "x.webp"
-    code, lines = _cli("run", "dejong", "--size", "32x32", *words, "--out", str(out))
+    code, lines = command("run", "dejong", "--size", "32x32", *words, "--out", str(out))
     assert code == 2 and len(lines) == 1 and "--trails" in lines[0], lines
     assert not out.exists()

@@ -496,7 +496,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
 def plan_fade_trails(b, present, opacity):
     """Screen-space trails over the presented picture: a pair of targets kept from frame to
     frame, each frame the brighter of the new picture and the last frame's times ``opacity``
-    less half a code (``post/trails.frag``). Returns the new presented resource."""
+    less 0.6 of a code (``post/trails.frag``). Returns the new presented resource."""
     w, h = b.resources[present].size
     b.resource(Resource("trails", "target", (w, h), "rgba8", buffers=2, swap="draw",
                         linear=True, what="the picture with the frames before it fading"))

@@ -169,7 +169,7 @@ SETTINGS = {d.name: d for d in (
                   "without it); auto, on where the context has vertex texture units"),
     _setting("trails", "off", text=True, metavar="off|fade:OPACITY",
              help="trails over an animation's frames: fade:OPACITY keeps the brighter of the new "
-                  "picture and the last frame's times OPACITY (0 to 1), less half a code, so a "
+                  "picture and the last frame's times OPACITY (0 to 1), less 0.6 of a code, so a "
                   "trail fades out fully (webgl-wind's screen-space fade); ribbons from each "
                   "particle's history are not built yet"),
     _setting("bloom_threshold", 0.2, 0.0, 1.0, help="bloom luminance threshold"),

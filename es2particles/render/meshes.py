@@ -259,3 +259,21 @@ def plan_meshes(b, meshes, light, target, clear, only=None, lamp=None):
                       clear=clear if not names else None, what=what))
         names.append(name)
     return names
+
+
+def plan_mesh_passes(b, meshes, kind, label, fragment, target, clear, what, frame=None):
+    """A stage per mesh (``LABEL: mesh i``) drawing it again with ``fragment`` (``mesh.vert``
+    placing it, depth test and writes) into ``target``, the first clearing it to ``clear``: the
+    depth pre-pass and the light shafts' occluders. ``frame``: more frame uniforms it reads."""
+    for i, mesh in enumerate(meshes, 1):
+        name, _, _ = mesh_vertex_data(b, i, mesh)
+        frames = {"u_view_projection": ("view_projection",), **(frame or {})}
+        uniforms = {}
+        if mesh.moves:
+            frames["u_model"] = ("model",)
+        else:
+            uniforms["u_model"] = IDENTITY
+        b.stage(Stage(f"{label}: mesh {i}", kind, fragment, "sprites/mesh.vert",
+                      target=Ref(target), vertices=name, state=DrawState(depth_test=True),
+                      uniforms=uniforms, frame_uniforms=frames,
+                      clear=clear if i == 1 else None, what=what))

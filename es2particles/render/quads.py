@@ -144,12 +144,9 @@ class Quads(Rendering):
             what=f"{layout.count} quads of {2 * self.half_size:g} m ({', '.join(self.shapes)}): "
                  f"4 vertices each through one index buffer, vertex texture fetch of "
                  f"{', '.join(self.reads)}", **quads))
-        if self.shafts is None:
-            b.left_out.append("light shafts (switched off)")
-            return "image"
         from .shafts import plan_shafts
 
-        def occluders(target, scale, clear):  # opaque: black, hidden behind the meshes
+        def occluders(target, clear):  # opaque: black, hidden behind the meshes
             b.stage(Stage("shaft occluders: quads", "shafts", "quads/confetti.frag",
                           "quads/confetti.vert", {"PALETTE": len(PALETTE), "OCCLUDER": None},
                           target=Ref(target), state=DrawState(depth_test=True), clear=clear,

@@ -10,8 +10,8 @@ point ``L`` on the screen::
 where ``source`` is the light the occluders let through (1 where nothing is in front of the
 sky, less through particles, by their opacity, 0 behind an opaque mesh) times the light's glow,
 exp(-(d / GLOW)^2) at a distance d from L in picture heights, on the screen, and 0 off it (no
-pass could hold what lies there; a ray that leaves the screen does not come back). The ray runs from the pixel to
-1 - RAY of its distance from L; ``decay`` is the light kept, and ``weight`` the light a sample
+pass could hold what lies there; a ray that leaves the screen does not come back). The ray
+runs from the pixel to 1 - RAY of its distance from L; ``decay`` is the light kept, and ``weight`` the light a sample
 adds, per 1/SEGMENTS of the ray (so the author's values, 0.95 and 0.45 a tap, keep their sense).
 
 Sampling t geometrically makes passes chain exactly: a pass of T taps whose factors are
@@ -21,8 +21,8 @@ midpoint sum of T^P samples (:func:`shaft_schedule`). Each pass is normalised (i
 in [0, 1] in an RGBA8 or half-float target) and the composite multiplies the gain back.
 ``reference`` is one pass of 1,024 taps at the picture's resolution.
 
-Stages: the occluders (the meshes black, then the particles each multiplying what passes by one
-less its opacity, at the shafts' scale), the passes (``shafts/scatter.frag``), and the
+Stages: the occluders at the picture's resolution (the meshes black, then the particles each
+multiplying what passes by one less its opacity), the passes at the shafts' scale (``shafts/scatter.frag``), and the
 composite (``shafts/composite.frag``), which adds the shafts to the picture in the light's
 colour, faded out as the light turns towards the camera's side (they never flip behind it).
 """
@@ -32,10 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ..frame.motion import IDENTITY
 from ..frame.plan import Ref, Resource, Stage
-from ..gl.device import DrawState
 from ..params import Params, param
+from .meshes import plan_mesh_passes
 
 MODES = ("off", "on", "reference")
 RAY = 0.95  # the ray runs from the pixel to 5% of its distance from the light
@@ -189,32 +188,24 @@ def backlight(eye, target):
 
 def plan_shafts(b, shafts, picture, light, meshes, occluders):
     """Add the light shafts' stages to plan builder ``b`` over the presented resource
-    ``picture``: the occluders (``meshes`` drawn black, then ``occluders(target, scale)``, which
-    adds the particles' stage multiplying what passes), the chained passes and the composite.
-    ``light``: the rendering's light (where the shafts declare none). Returns the new picture."""
+    ``picture``: the occluders at the picture's resolution (``meshes`` drawn black, then
+    ``occluders(target, clear)``, which adds the particles' stage multiplying what passes, the
+    first to clear the target where there are no meshes), the chained passes at the shafts'
+    scale and the composite. ``light``: the rendering's light (where the shafts declare none).
+    Returns the new picture; with ``shafts`` None, ``picture`` (the plan says they are off)."""
+    if shafts is None:
+        b.left_out.append("light shafts (switched off)")
+        return picture
     light = tuple(float(v) for v in (shafts.light or light))
     w, h = b.size
     scale = float(shafts.scale)
     size = (max(1, int(round(w * scale))), max(1, int(round(h * scale))))
     b.resource(Resource("shaft occluders", "target", (w, h), "rgba8", depth=bool(meshes),
-                        linear=True, what="the light the scene lets through, at the shafts' "
-                                          "scale"))
+                        linear=True, what="the light the scene lets through"))
     white = (1.0, 1.0, 1.0, 1.0)
-    for i, mesh in enumerate(meshes, 1):
-        from .meshes import mesh_vertex_data
-
-        name, _, _ = mesh_vertex_data(b, i, mesh)
-        frame = {"u_view_projection": ("view_projection",)}
-        uniforms = {}
-        if mesh.moves:
-            frame["u_model"] = ("model",)
-        else:
-            uniforms["u_model"] = IDENTITY
-        b.stage(Stage(f"shaft occluder: mesh {i}", "shafts", "lamp/occluder.frag",
-                      "sprites/mesh.vert", target=Ref("shaft occluders"), vertices=name,
-                      state=DrawState(depth_test=True), uniforms=uniforms, frame_uniforms=frame,
-                      clear=white if i == 1 else None, what="black: it stops the light"))
-    occluders("shaft occluders", 1.0, None if meshes else white)
+    plan_mesh_passes(b, meshes, "shafts", "shaft occluder", "lamp/occluder.frag",
+                     "shaft occluders", white, "black: it stops the light")
+    occluders("shaft occluders", None if meshes else white)
     fmt = "rgba16f" if b.caps.renderable.get("rgba16f") else "rgba8"
     rows, gain = shafts.schedule()
     source, frame = "shaft occluders", {"u_view_projection": ("view_projection",)}

@@ -19,7 +19,7 @@ from ..frame.plan import Ref, Rendering, Resource, Stage, Vertices
 from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
-from .meshes import plan_meshes
+from .meshes import plan_mesh_passes, plan_meshes
 
 BLENDS = ("add", "over")
 # The renderer's inputs: role -> (the name its shader reads it by, components, define).
@@ -137,25 +137,12 @@ def sprite_image(spec):
 def plan_depth_prepass(b, meshes, size):
     """The opaque scene's distance packed into an RGBA8 target (for a context that cannot
     sample a depth buffer): each mesh drawn again with ``sprites/depth.frag``."""
-    from ..frame.motion import IDENTITY
-    from .meshes import mesh_vertex_data
-
     b.resource(Resource("scene depth", "target", size, "rgba8", depth=True,
                         what="the opaque scene's distance, packed in 16 bits (no depth "
                              "textures to sample)"))
     far = (254 / 255, 254 / 255, 0.0, 1.0)  # pack16(1): the far plane
-    for i, mesh in enumerate(meshes, 1):
-        name, _, _ = mesh_vertex_data(b, i, mesh)
-        frame = {"u_view_projection": ("view_projection",), "u_planes": ("depth_planes",)}
-        uniforms = {}
-        if mesh.moves:
-            frame["u_model"] = ("model",)
-        else:
-            uniforms["u_model"] = IDENTITY
-        b.stage(Stage(f"depth: mesh {i}", "depth", "sprites/depth.frag", "sprites/mesh.vert",
-                      target=Ref("scene depth"), vertices=name,
-                      state=DrawState(depth_test=True), uniforms=uniforms, frame_uniforms=frame,
-                      clear=far if i == 1 else None, what="its distance, packed"))
+    plan_mesh_passes(b, meshes, "depth", "depth", "sprites/depth.frag", "scene depth", far,
+                     "its distance, packed", {"u_planes": ("depth_planes",)})
 
 
 # --- the declaration ----------------------------------------------------------------------------
@@ -382,7 +369,7 @@ class Sprites(Rendering):
             frame["u_size"] = ("jogl_sprite_size", drawn_pixels, float(self.size_spread),
                                *map(float, self.law_anchor), float(self.law_distance))
         # The light shafts' occluders draw the same sprites in texel order (the multiply blend
-        # needs no order), unshadowed, at the shafts' scale.
+        # needs no order), unshadowed.
         occluder = (dict(defines), dict(inputs), dict(uniforms), dict(frame), pixel_size)
         vertices = None
         order = "texel order"
@@ -440,22 +427,20 @@ class Sprites(Rendering):
         else:
             picture = self._plan_direct(b, defines, interface, inputs, vertices, uniforms,
                                         frame, what)
-        if self.shafts is None:
-            b.left_out.append("light shafts (switched off)")
-            return picture
         from .shafts import plan_shafts
 
         return plan_shafts(b, self.shafts, picture,
                            self.lamp.position if self.lamp is not None else self.light,
-                           self.meshes, lambda target, scale, clear: self._plan_occluders(
-                               b, interface, occluder, target, scale, clear))
+                           self.meshes, lambda target, clear: self._plan_occluders(
+                               b, interface, occluder, target, clear))
 
-    def _plan_occluders(self, b, interface, occluder, target, scale, clear):
-        """The sprites into the light shafts' occluders: each multiplies the light passing by one
-        less its opacity (``OCCLUDER``), behind the meshes hidden by their depth."""
+    def _plan_occluders(self, b, interface, occluder, target, clear):
+        """The sprites into the light shafts' occluders, at the picture's resolution: each
+        multiplies the light passing by one less its opacity (``OCCLUDER``), behind the meshes
+        hidden by their depth."""
         defines, inputs, uniforms, frame, pixel_size = occluder
         size = list(frame["u_size"])
-        size[1] = pixel_size * scale
+        size[1] = pixel_size  # the picture's size, not a smaller sprite buffer's
         b.stage(Stage(
             "shaft occluders: sprites", "shafts", "sprites/sprite.frag", "sprites/sprite.vert",
             {**defines, "OCCLUDER": None}, vertex_interface=interface,

@@ -721,7 +721,8 @@ def _run(args):
                 for line in scene.after_run(pipeline.sim):  # once a run: what it saw
                     print(f"es2particles: note: {line}", file=sys.stderr)
                 said = (f"wrote {out} ({pipeline.size[0]}x{pipeline.size[1]}, "
-                        f"{pipeline.sim.count} particles, {pipeline.sim.steps_done} steps, "
+                        + (f"{pipeline.sim.count} particles, " if pipeline.sim.count else "")
+                        + f"{pipeline.sim.steps_done} steps, "
                         f"{frames} frame(s))")
                 density = (f"; density target {pipeline.plan.resources['density'].format}"
                            if "density" in pipeline.plan.resources else "")

@@ -19,7 +19,7 @@ from es2particles.frame.settings import COMMON_SETTINGS, SETTINGS
 from es2particles.scenes import scene_class
 
 SCENES = ("dejong", "clifford", "collision", "fountain", "collision3d", "confetti", "smoke",
-          "wind", "boids", "liquid", "sph")
+          "wind", "boids", "liquid", "sph", "flame")
 # A value for each option whose default a rule cannot move (text, a scene's own default).
 VALUES = {
     "--shape": {"collision": "box", "collision3d": "box:0,1,0,1,0.5,1",
@@ -58,7 +58,7 @@ def _run(scene, extra, tmp_path):
     err = io.StringIO()
     with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
         base = [w for w in BASE.get(scene, []) if not extra or extra[0] != BASE[scene][0]]
-        small = SMALL[:2] if scene == "sph" else SMALL  # its count follows --spacing
+        small = SMALL[:2] if scene in ("sph", "flame") else SMALL  # by --spacing; no particles
         code = main(["run", scene, *small, *base, *extra, "--out", str(out), "--save-state",
                      str(state)])
     if code:

@@ -137,6 +137,6 @@ def test_a_broken_plug_in_is_named_and_left_out(tmp_path):
                             capture_output=True, text=True, env=env, cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert "['boids', 'clifford', 'collision', 'collision3d', 'confetti', 'dejong', " \
-           "'fountain', 'liquid', 'smoke', 'sph', 'wind']" in result.stdout
+           "'flame', 'fountain', 'liquid', 'smoke', 'sph', 'wind']" in result.stdout
     assert "scene 'broken' (no_such_module:X) could not be loaded: ModuleNotFoundError" in \
         result.stderr

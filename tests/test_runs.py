@@ -38,8 +38,9 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
     text = help_of(capsys, "run", name)
     listed = listed_options(text)
     params = {"--" + n.replace("_", "-") for n in scene_class(name).Params.options()}
-    three_d = name in ("fountain", "collision3d", "confetti", "smoke")
-    common = COMMON - {"--point-size"} if name == "confetti" else COMMON  # quads: a world size
+    three_d = name in ("fountain", "collision3d", "confetti", "smoke", "flame")
+    # Quads have a world size; the flame draws no points.
+    common = COMMON - {"--point-size"} if name in ("confetti", "flame") else COMMON
     expected = RUN_OPTIONS | common | params | (set() if three_d else DENSITY_ONLY)
     assert listed == expected, (listed ^ expected)
     if three_d:
@@ -50,7 +51,8 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
 STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^17", "2"),
           "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "confetti": ("2^13", None),
           "smoke": ("2^15", "16"), "wind": ("2^20", "1"), "boids": ("2^14", "2"),
-          "liquid": ("2^14", "4"), "sph": ("3200", "2")}
+          "liquid": ("2^14", "4"), "sph": ("3200", "2"),
+          "flame": ("none (noise), 2^16 (smoke)", None)}
 
 
 @pytest.mark.parametrize("name", BUILT_IN)

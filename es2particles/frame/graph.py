@@ -429,7 +429,7 @@ class PassGraph:
         if outputs is None:
             outputs = list(dict.fromkeys(p.writes for p in self.passes if not p.builds))
         outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)  # one name or several
-        if not outputs:
+        if not outputs and (self.passes or self.quantities):  # an empty graph: nothing to do
             raise ParameterError("outputs must name at least one quantity")
         self._check()
         for name in outputs:

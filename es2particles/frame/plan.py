@@ -471,8 +471,9 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     rendering.check_reads(scene, graph)
     b.size = size
     outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
-    plan_simulation(b, graph, outputs, b.setting("particles", defaults.particles),
-                    b.setting("format", "rgba8"), b.setting("rounding", defaults.rounding))
+    count = b.setting("particles", defaults.particles) if graph.quantities else None
+    plan_simulation(b, graph, outputs, count, b.setting("format", "rgba8"),
+                    b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)
     trails, opacity = parse_trails(b.setting("trails", "off"))
     if trails == "fade":

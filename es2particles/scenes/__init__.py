@@ -21,16 +21,18 @@ BUILT_IN = {"dejong": "es2particles.scenes.dejong:DeJong",
             "wind": "es2particles.scenes.wind:Wind",
             "boids": "es2particles.scenes.boids:Boids",
             "liquid": "es2particles.scenes.liquid:Liquid",
-            "sph": "es2particles.scenes.sph:Sph"}
+            "sph": "es2particles.scenes.sph:Sph",
+            "flame": "es2particles.scenes.flame:Flame"}
 # What ``from es2particles.scenes import X`` gives (name -> module), imported when first asked for.
 _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene": "base",
             "DeJong": "dejong", "Clifford": "clifford", "Collision": "collision",
             "Fountain": "fountain", "Collision3D": "collision3d", "Confetti": "confetti",
-            "Smoke": "smoke", "Wind": "wind", "Boids": "boids", "Liquid": "liquid", "Sph": "sph"}
+            "Smoke": "smoke", "Wind": "wind", "Boids": "boids", "Liquid": "liquid", "Sph": "sph",
+            "Flame": "flame"}
 
 # The modules (what pdoc documents); the classes above are reached as attributes.
 __all__ = ["base", "attractor", "dejong", "clifford", "emitter", "collision", "fountain",
-           "collision3d", "confetti", "smoke", "wind", "boids", "liquid", "sph", "field_compression", "installed_scenes",
+           "collision3d", "confetti", "smoke", "wind", "boids", "liquid", "sph", "flame", "field_compression", "installed_scenes",
            "scene_class",
            "ENTRY_POINT_GROUP", "BUILT_IN"]
 

@@ -115,6 +115,16 @@ class EmitterParams(ShaftParams):
                                  "comes back over it; give --buffer-scale below 1 with it")
 
 
+def camera_of(p, frame, frames):
+    """The camera of frame ``frame`` of ``frames`` from parameters ``p``'s ``camera`` (fixed, or
+    orbiting its target once over the animation), ``eye``, ``target`` and ``fov``."""
+    if p.camera == "orbit":
+        dx, dz = p.eye[0] - p.target[0], p.eye[2] - p.target[2]
+        return orbit(frame, frames, radius=float(np.hypot(dx, dz)), height=p.eye[1],
+                     target=p.target, fov=p.fov, phase=float(np.arctan2(dx, dz)))
+    return Camera(eye=p.eye, target=p.target, fov=p.fov)
+
+
 class Emitter(Scene):
     """Base of the emitter family (see the module's docstring)."""
 
@@ -185,12 +195,7 @@ class Emitter(Scene):
                 **self.begin(count, rng)}
 
     def camera_at(self, frame, frames):
-        p = self.params
-        if p.camera == "orbit":
-            dx, dz = p.eye[0] - p.target[0], p.eye[2] - p.target[2]
-            return orbit(frame, frames, radius=float(np.hypot(dx, dz)), height=p.eye[1],
-                         target=p.target, fov=p.fov, phase=float(np.arctan2(dx, dz)))
-        return Camera(eye=p.eye, target=p.target, fov=p.fov)
+        return camera_of(self.params, frame, frames)
 
     def rendering(self):
         # Sprite sizes are those at the declared camera's distance from its target (the seed

@@ -29,19 +29,7 @@ vec2 light_point()
     return clip.xy / max(clip.w, 1e-6) * 0.5 + 0.5;
 }
 
-// A pixel's place in the 4x4 Bayer pattern, 0..15: 4 b(x mod 2, y mod 2) + b(x/2 mod 2,
-// y/2 mod 2) with the 2x2 pattern b(x, y) = 2 |x - y| + y (floors, not mod: exact everywhere).
-float bayer2(vec2 p)
-{
-    p -= 2.0 * floor(p * 0.5);
-    return 2.0 * abs(p.x - p.y) + p.y;
-}
-
-float bayer4(vec2 fragment)
-{
-    vec2 p = floor(fragment);
-    return 4.0 * bayer2(p) + bayer2(floor(p * 0.5));
-}
+#include "lib/bayer.glsl"
 
 void main()
 {

@@ -1,0 +1,196 @@
+"""The flame (issue 42, item 2): the blackbody ramp against Planck's and Stefan-Boltzmann's laws
+written here; the march through a uniform grid against the closed form of emission and
+absorption over each ray's chord (rays and box written here); the smoke flame's splat against
+its particles binned in float64; the march's error against a 256-step reference (the docs'
+table); and the options' refusals."""
+
+import numpy as np
+import pytest
+
+from conftest import command
+from es2particles.frame.pipeline import Pipeline
+from es2particles.render.flame import RAMP_KELVIN, ramp_image
+from es2particles.scenes.flame import Flame, FlameParams
+
+H, C, K_B = 6.62607015e-34, 2.99792458e8, 1.380649e-23  # CODATA 2018, exact
+
+
+def _blackbody(kelvin):
+    """(n, 3): Planck's radiance at 610, 550 and 465 nm, its brightest channel 1, times
+    (T / 3000 K)^4."""
+    lam = np.array([610e-9, 550e-9, 465e-9])
+    t = np.asarray(kelvin, float)[:, None]
+    radiance = 1 / lam ** 5 / (np.exp(H * C / (lam * K_B * t)) - 1)
+    return radiance / radiance.max(axis=1, keepdims=True) * (t / 3000.0) ** 4
+
+
+def test_the_ramp_is_a_blackbody():
+    """Every texel within half a code of the law; hotter is brighter and whiter (green over
+    red rises); 1,000 K is a dim red."""
+    ramp = ramp_image()[0, :, :3].astype(float)
+    want = _blackbody(np.linspace(1000.0, 3000.0, 256)) * 255
+    assert RAMP_KELVIN == (1000.0, 3000.0)
+    assert np.abs(ramp - want).max() <= 0.5 + 1e-9
+    assert np.all(np.diff(want.sum(axis=1)) > 0) and np.all(np.diff(want[:, 1] / want[:, 0]) > 0)
+    assert ramp[0].tolist() == [3.0, 0.0, 0.0]
+
+
+class UniformGrid(Flame):
+    """The smoke flame with its particles placed by hand: PER of them at the centre of each of
+    the grid's cells, just born (heat 1); no step runs, so the field is uniform."""
+
+    PER = 2
+
+    def start(self, count, rng):
+        lo, hi = (np.array(v) for v in self.params.box)
+        n = self.params.cells
+        cell = np.arange(count) % n ** 3
+        ijk = np.stack([cell % n, cell // n % n, cell // n ** 2], axis=1)
+        return {"position": lo + (ijk + 0.5) / n * (hi - lo),
+                "life": np.tile([0.0, 1.0], (count, 1))}
+
+
+def _rays(camera, size):
+    """Unit ray directions (h, w, 3) through the pixel centres, GL's rows (0 at the bottom),
+    from a look-at and the vertical field of view written here."""
+    w, h = size
+    eye, target = np.array(camera.eye, float), np.array(camera.target, float)
+    f = (target - eye) / np.linalg.norm(target - eye)
+    s = np.cross(f, camera.up)
+    s /= np.linalg.norm(s)
+    u = np.cross(s, f)
+    k = np.tan(np.radians(camera.fov) / 2)
+    y, x = np.mgrid[0:h, 0:w] + 0.5
+    d = (f + ((2 * x / w - 1) * k * w / h)[..., None] * s + ((2 * y / h - 1) * k)[..., None] * u)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def _chords(eye, rays, lo, hi):
+    """Each ray's length inside the box [lo, hi], by its slabs (float64)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (np.asarray(lo) - eye) / rays, (np.asarray(hi) - eye) / rays
+    t0 = np.maximum(np.nanmax(np.minimum(a, b), axis=-1), 0)
+    t1 = np.nanmin(np.maximum(a, b), axis=-1)
+    return np.maximum(t1 - t0, 0)
+
+
+def _rgba8(pipeline, name):
+    w, h = pipeline.plan.resources[name].size
+    return np.frombuffer(pipeline.executor.read(name), np.uint8).reshape(h, w, 4).astype(float)
+
+
+@pytest.mark.parametrize("steps, jitter", [(1, "off"), (7, "on")])
+def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
+    """Density rho in every cell: along a chord c, L = (E / K) B (1 - exp(-K rho c)) + background
+    exp(-K rho c) and the picture 1 - exp(-L), exact at any step count. Within the ramp's and
+    the output's rounding (half a code each, the ramp's carried through the curve): a half-code
+    bias fails."""
+    n, size = 8, (96, 64)
+    scene = UniformGrid(source="smoke", cells=n, extinction=1.5, emission=3.0, march_steps=steps,
+                        march_jitter=jitter, eye=(2.5, 2.6, 4.2), target=(0.0, 1.5, 0.0))
+    rendering = scene.rendering()
+    with Pipeline(gl, scene, particles=UniformGrid.PER * n ** 3, size=size, steps=0) as p:
+        next(p.frames())
+        got = _rgba8(p, "flame")[..., :3] / 255
+        camera = p.camera(0, 1)
+    rho = UniformGrid.PER * rendering.per_particle
+    chord = _chords(np.array(camera.eye), _rays(camera, size), *scene.params.box)
+    through = np.exp(-scene.params.extinction * rho * chord)[..., None]
+    ratio = scene.params.emission / scene.params.extinction
+    light = ratio * _blackbody([3000.0]) * (1 - through) + np.array(rendering.background) * through
+    want = 1 - np.exp(-light)
+    assert (chord > 0).mean() > 0.3 and chord.max() > 3  # the box fills much of the picture
+    slack = 0.5 / 255 + np.exp(-light) * ratio * (1 - through) * 0.5 / 255 + 1e-4
+    error = got - want
+    print(f"steps {steps}: mean {error.mean() * 255:+.3f} codes, max "
+          f"{np.abs(error).max() * 255:.2f}")
+    assert np.all(np.abs(error) <= slack)
+    assert abs(error.mean()) < 0.1 / 255
+
+
+def test_the_splat_counts_the_particles_in_each_cell(gl):
+    """The smoke flame's grid after 40 steps: each cell's count and heat are those of the live
+    particles read back and binned here in float64 (positions on a cell's face may fall either
+    way: at most 1 in 2,000 particles)."""
+    scene = Flame(source="smoke", cells=16)
+    with Pipeline(gl, scene, particles=2 ** 13, size=(32, 32), steps=40) as p:
+        next(p.frames())
+        position, life = p.sim.download("position"), p.sim.download("life")
+        resource = p.plan.resources["flame grid"]
+        w, h = resource.size
+        grid = np.frombuffer(p.executor.read("flame grid"), np.float32).reshape(h, w, 4)
+    assert resource.format == "rgba32f"
+    lo, hi = (np.array(v) for v in scene.params.box)
+    n = 16
+    alive = (life[:, 0] >= 0) & (life[:, 0] < life[:, 1])
+    cell = np.floor((position - lo) / (hi - lo) * n).astype(int)
+    inside = alive & np.all((cell >= 0) & (cell < n), axis=1)
+    assert inside.sum() > 0.5 * len(position)
+    across = int(np.ceil(np.sqrt(n)))
+    counts, heat = np.zeros((h, w)), np.zeros((h, w))
+    i, j, k = cell[inside].T
+    rows, cols = (k // across) * n + j, (k % across) * n + i
+    np.add.at(counts, (rows, cols), 1)
+    np.add.at(heat, (rows, cols), 1 - life[inside, 0] / life[inside, 1])
+    assert counts.sum() == grid[..., 0].sum()
+    assert np.abs(grid[..., 0] - counts).sum() <= 2 * len(position) / 2000
+    assert np.abs(grid[..., 1] - heat).sum() <= 2 * len(position) / 2000 + 1e-3 * heat.sum()
+
+
+def _flame(gl, size=(128, 128), **options):
+    with Pipeline(gl, Flame(**options), size=size, steps=30) as p:
+        next(p.frames())
+        return p.image().astype(float)
+
+
+@pytest.mark.slow
+def test_the_march_converges_to_the_reference(gl):
+    """The docs' table (docs/scenes/flame.md): 16, 32 and 64 jittered steps and the author's
+    128 against 256 unjittered steps, in codes: each doubling errs less, and 64 jittered steps
+    stay within 1 code on average."""
+    reference = _flame(gl, march_steps=256, march_jitter="off")
+    errors = {steps: np.abs(_flame(gl, march_steps=steps) - reference).mean()
+              for steps in (16, 32, 64, 128)}
+    print({k: round(v, 3) for k, v in errors.items()})
+    assert errors[16] > errors[32] > errors[64] > errors[128]
+    assert errors[64] < 1.0
+
+
+def test_every_flame_option_acts(gl):
+    """Each option of the noise flame, moved off its default, changes the picture."""
+    base = _flame(gl, size=(48, 48))
+    idle = [name for name, value in {
+        "march_steps": 20, "march_jitter": "off", "dt": 0.05, "extinction": 1.0,
+        "emission": 4.0, "shape": (0.5, 1.8, 0.3, 3.0), "rise": 0.5,
+        "eye": (1.0, 1.4, 5.0), "target": (0.0, 1.0, 0.0), "fov": 40.0}.items()
+        if np.array_equal(_flame(gl, size=(48, 48), **{name: value}), base)]
+    assert not idle
+
+
+@pytest.mark.parametrize("words, named", [
+    (["--source", "wind"], "--source wind"),
+    (["--source", "fire"], "--source"),
+    (["--march-steps", "0"], "--march-steps"),
+    (["--march-steps", "1025"], "--march-steps"),
+    (["--march-jitter", "maybe"], "--march-jitter"),
+    (["--cells", "32"], "--cells"),
+    (["--source", "smoke", "--rise", "2"], "--rise"),
+    (["--particles", "1000"], "--particles"),
+    (["--format", "rgba32f"], "--format"),
+])
+def test_bad_flame_options_are_one_line(tmp_path, words, named):
+    out = tmp_path / "x.png"
+    code, lines = command("run", "flame", "--size", "32x32", *words, "--out", str(out))
+    assert code == 2 and len(lines) == 1 and named in lines[0], lines
+    assert not out.exists()
+
+
+def test_the_noise_flame_has_no_particles():
+    """Its plan has no state and no pass; the box holds the flame's reach."""
+    from es2particles.frame.plan import plan_frame
+
+    plan = plan_frame(Flame())
+    assert not [r for r in plan.resources.values() if r.kind == "state"]
+    assert [s.name for s in plan.stages] == ["flame"]
+    lo, hi = FlameParams().box
+    assert hi[1] == pytest.approx(2.0 + 1.5 * 0.3) and lo[0] == pytest.approx(-(0.45 + 0.45))

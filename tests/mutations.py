@@ -78,6 +78,7 @@ SHAFTS = "shaders/glsl100/shafts/scatter.frag"
 TRAILS = "shaders/glsl100/post/trails.frag"
 LIQUID = "shaders/glsl100/liquid/liquid.frag"
 SPH = "shaders/glsl100/sph/sph.frag"
+FLAME = "shaders/glsl100/flame/march.frag"
 WIND = "shaders/glsl100/wind/fluid.frag"
 
 MUTATIONS = (
@@ -418,6 +419,31 @@ MUTATIONS = (
                "return bool(scene.stateless) and settings.get(\"trails\", \"off\") == \"off\"",
                "return bool(scene.stateless)"),),
              ("tests/test_trails.py",)),
+    # --- flame ---------------------------------------------------------------------------------------
+    Mutation("flame-segment-light-not-dimmed", "flame",
+             "a segment's light added whole, not times the light let through before it",
+             ((FLAME, "light += through * a * texture2D(", "light += a * texture2D("),),
+             ("tests/test_flame.py",)),
+    Mutation("flame-ray-from-the-box-origin", "flame",
+             "the march starts at the eye, not where the ray enters the box",
+             ((FLAME, "float t0 = max(max(max(enter.x, enter.y), enter.z), 0.0);",
+               "float t0 = 0.0;"),),
+             ("tests/test_flame.py",)),
+    Mutation("flame-ramp-half-texel", "flame",
+             "the ramp read at the texels' edges, not their centres: half a texel cooler",
+             ((FLAME, "vec2((f.y * 255.0 + 0.5) / 256.0, 0.5)", "vec2(f.y * 255.0 / 256.0, 0.5)"),),
+             ("tests/test_flame.py",)),
+    Mutation("flame-splat-slice-off-by-one", "flame",
+             "a particle splatted into the next z slice's tile",
+             (("shaders/glsl100/flame/splat.vert",
+               "float row = floor((c.z + 0.5) / u_atlas.y);\n    vec2 texel = vec2(c.z - row",
+               "c.z = min(c.z + 1.0, u_atlas.x - 1.0);\n    float row = floor((c.z + 0.5) / u_atlas.y);\n    vec2 texel = vec2(c.z - row"),),
+             ("tests/test_flame.py",)),
+    Mutation("flame-dead-particles-splatted", "flame",
+             "dead and unborn particles splatted with the live ones",
+             (("shaders/glsl100/flame/splat.vert", "if (!life_alive(life) || !inside) {",
+               "if (!inside) {"),),
+             ("tests/test_flame.py",)),
 )
 
 # The subset tests/test_mutations.py runs in the test command: one or two per area, the issue's
@@ -427,7 +453,7 @@ CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", 
              "iterations-not-ping-ponged", "wind-divergence-sign",
              "neighbour-search-past-the-cell", "boids-separation-attracts",
              "liquid-density-linear", "shafts-sprite-opacity-inverted",
-             "trails-keep-a-ghost")
+             "trails-keep-a-ghost", "flame-ramp-half-texel")
 
 
 def make_copy(folder):

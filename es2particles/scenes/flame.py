@@ -30,7 +30,7 @@ NOISE_ONLY = ("shape", "rise")
 SMOKE_ONLY = ("cells",)
 # The smoke scene's parameters for a flame: short lives, a tight fast orbit at the floor, strong
 # buoyancy, and its sphere still and out of the way above the flame.
-SMOKE = {"lifetime": (1.0, 1.6), "emitter": (0.0, 0.15, 0.0, 0.2), "emission": (1.5, 0.2),
+SMOKE = {"lifetime": (1.0, 1.6), "emitter": (0.0, 0.3, 0.0, 0.2), "emission": (1.5, 0.25),
          "wind": (0.0, 1.2, 0.0), "gravity": (0.0, 1.5, 0.0), "tau": 0.15,
          "noise": (0.3, 1.4, 0.6, 1.0), "sphere": (0.0, 7.0, 0.0, 0.2),
          "sway": (0.0, 0.0, 0.0, 7.0)}

@@ -10,6 +10,9 @@ precision highp float;
 #ifndef STEPS
 #define STEPS 64  // the plan defines it (a loop's bound is a constant in ES 2.0)
 #endif
+#if !defined(SOURCE_NOISE) && !defined(SOURCE_GRID)
+#define SOURCE_NOISE  // the plan defines one
+#endif
 varying vec2 v_uv;
 uniform vec3 u_eye;
 uniform vec3 u_forward;

@@ -471,13 +471,20 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     rendering.check_reads(scene, graph)
     b.size = size
     outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
+    trails, opacity = parse_trails(b.setting("trails", "off"))  # opacity: K for ribbons
+    if trails == "ribbons" and "life" in graph.quantities and graph.writer("life") is not None:
+        outputs = tuple(dict.fromkeys(outputs + ("life",)))  # a ribbon ends where a life does
     count = b.setting("particles", defaults.particles) if graph.quantities else None
     plan_simulation(b, graph, outputs, count, b.setting("format", "rgba8"),
                     b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)
-    trails, opacity = parse_trails(b.setting("trails", "off"))
     if trails == "fade":
         present = plan_fade_trails(b, present, opacity)
+    elif trails == "ribbons":
+        from .ribbons import plan_ribbons
+
+        plan_ribbons(b, present, opacity, None if rendering.has_camera
+                     else getattr(rendering, "view", None), scene.stateless)
     culled = _cull(b.stages, present)
     b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
                    for s in b.stages if s.name in culled]

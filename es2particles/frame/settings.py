@@ -167,11 +167,12 @@ SETTINGS = {d.name: d for d in (
              help="how the points read the state: on, vertex texture fetch (the article's "
                   "way); off, the state read back into a vertex buffer each frame (for devices "
                   "without it); auto, on where the context has vertex texture units"),
-    _setting("trails", "off", text=True, metavar="off|fade:OPACITY",
+    _setting("trails", "off", text=True, metavar="off|fade:OPACITY|ribbons:K",
              help="trails over an animation's frames: fade:OPACITY keeps the brighter of the new "
                   "picture and the last frame's times OPACITY (0 to 1), less 0.6 of a code, so a "
-                  "trail fades out fully (webgl-wind's screen-space fade); ribbons from each "
-                  "particle's history are not built yet"),
+                  "trail fades out fully (webgl-wind's screen-space fade); ribbons:K draws each "
+                  "particle's positions of the last K frames (2 to 64) as a strip, fading with "
+                  "age"),
     _setting("bloom_threshold", 0.2, 0.0, 1.0, help="bloom luminance threshold"),
     _setting("bloom_radius", 3.0, 0.5, 4.0, help="bloom blur sigma, texels of the half level"),
     _setting("bloom_intensity", 0.8, 0.0, 10.0, help="bloom strength"),
@@ -179,11 +180,16 @@ SETTINGS = {d.name: d for d in (
 BLOOM_PARTS = ("bloom_threshold", "bloom_radius", "bloom_intensity")
 
 
+MAX_RIBBON = 64  # positions a ribbon keeps, at most
+
+
 def parse_trails(text):
-    """``--trails`` as (kind, value): ("off", None) or ("fade", the opacity a frame keeps, in
-    (0, 1)); ribbons are refused (not built yet), as is anything else, in one line."""
+    """``--trails`` as (kind, value): ("off", None), ("fade", the opacity a frame keeps, in
+    (0, 1)) or ("ribbons", K positions each particle's ribbon keeps, 2 to MAX_RIBBON); anything
+    else is refused in one line (K against the context's texture size: when the frame is
+    planned)."""
     if not isinstance(text, str):
-        raise ParameterError(f"--trails must be off or fade:OPACITY, got {text!r}")
+        raise ParameterError(f"--trails must be off, fade:OPACITY or ribbons:K, got {text!r}")
     kind, _, value = text.partition(":")
     if kind == "off" and not value:
         return "off", None
@@ -196,9 +202,11 @@ def parse_trails(text):
             raise ParameterError(f"--trails fade:OPACITY must be in (0, 1), got {value}")
         return "fade", opacity
     if kind == "ribbons":
-        raise ParameterError("--trails ribbons:K: ribbons from each particle's history are not "
-                             "built yet; fade:OPACITY is")
-    raise ParameterError(f"--trails must be off or fade:OPACITY, got {text!r}")
+        if not value.strip().isdigit() or not 2 <= int(value) <= MAX_RIBBON:
+            raise ParameterError(f"--trails ribbons:K takes a whole number K in [2, "
+                                 f"{MAX_RIBBON}] (positions a ribbon keeps), got {value!r}")
+        return "ribbons", int(value)
+    raise ParameterError(f"--trails must be off, fade:OPACITY or ribbons:K, got {text!r}")
 
 
 def frames_independent(scene, settings):

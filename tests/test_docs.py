@@ -65,6 +65,8 @@ def _small(line):
     words = line.split()
     if len(words) >= 3 and words[:3] == ["es2particles", "run", "sph"]:  # count from spacing
         return line + " --size 96x96 --spacing 0.1 --steps 100"
+    if len(words) >= 3 and words[2] == "flame" and "smoke" not in words:  # no particles
+        return line + " " + " ".join(SMALL[:2])
     if len(words) >= 2 and words[0] == "es2particles" and words[1] in ("run", "export") \
             and "--config" not in words:
         return line + " " + " ".join(SMALL)

@@ -165,16 +165,45 @@ def sqrt_error(value, error):
 EXP_ULPS, DIVISION_ULPS, SQRT_ULPS, NORMALIZE = 3.0, 2.5, 4.5, 5 * U
 
 
-def push_out_rescale(turned, v2, e_v2, d, e_depth, an, e_an, direction_error):
+def push_out_work(turn, turn_unsure, vn, e_vn, d, e_depth, an, e_an, moved, e_moved, speed,
+                  e_speed, v2, e_v2):
+    """The work the push-out takes from v^2 in the 2D and 3D responses, with its bound: 2 d a.n,
+    but where the response turned the particle (``turn``: vn < 0; ``turn_unsure``: float32 may
+    take the other side), over the depth its own move explains, ours = max(d, min(moved, 0)),
+    at most vn^2 less what the response took (``speed``^2 in, ``v2`` out): min(2 ours a.n,
+    max(vn^2 - (speed^2 - v2), 0)) + 2 (d - ours) a.n. Each input within its ``e_``."""
+    full = 2 * d * an
+    e_full = 2 * (e_depth * np.abs(an) + np.abs(d) * e_an + e_depth * e_an) + 2 * U * np.abs(full)
+    ours = np.maximum(d, np.minimum(moved, 0))
+    e_ours = np.maximum(e_depth, e_moved)  # max and min move by at most their inputs' errors
+    mine = 2 * ours * an
+    e_mine = 2 * (e_ours * np.abs(an) + np.abs(ours) * e_an + e_ours * e_an) + 2 * U * np.abs(mine)
+    lost = speed * speed - v2
+    e_lost = 2 * speed * e_speed + e_speed ** 2 + e_v2 + 2 * U * (speed * speed + v2)
+    left = vn * vn - lost
+    e_left = 2 * np.abs(vn) * e_vn + e_vn ** 2 + e_lost + U * (vn * vn + np.abs(left))
+    normal = np.maximum(left, 0)
+    deeper = 2 * (d - ours) * an
+    e_gap = e_depth + e_ours
+    e_deeper = 2 * (e_gap * np.abs(an) + np.abs(d - ours) * e_an + e_gap * e_an) \
+        + 3 * U * np.abs(deeper)
+    capped = np.minimum(mine, normal) + deeper
+    e_capped = np.maximum(e_mine, e_left) + e_deeper + U * np.abs(capped)
+    work = np.where(turn, capped, full)
+    e_work = np.where(turn, e_capped, e_full)
+    e_work = np.where(turn_unsure, np.maximum(e_capped, e_full) + np.abs(capped - full), e_work)
+    return work, e_work
+
+
+def push_out_rescale(turned, v2, e_v2, work, e_work, direction_error):
     """The push-out's energy rescale of the 2D and 3D collision steps with its bound: the
-    float64 v * sqrt(max(v2 - 2 d a.n, 0) / v2) is sqrt(max(v2 - 2 d a.n, 0)) along v.
-    ``turned`` (n, k) is v, ``v2`` its squared length within ``e_v2``; ``d`` the depth within
-    ``e_depth``; ``an`` = a.n within ``e_an``; ``direction_error(direction)``: the error of v's
-    direction (its error across it over its length), per component. Returns (rescaled, bound);
-    at rest in float64 the GPU's v may be off 0, and rescaled to any direction."""
-    number = v2 - 2 * d * an
-    e_number = e_v2 + 2 * (e_depth * np.abs(an) + np.abs(d) * e_an + e_depth * e_an) \
-        + 3 * U * (v2 + 2 * np.abs(d * an))
+    float64 v * sqrt(max(v2 - work, 0) / v2) is sqrt(max(v2 - work, 0)) along v (``work``:
+    :func:`push_out_work`). ``turned`` (n, k) is v, ``v2`` its squared length within ``e_v2``;
+    ``direction_error(direction)``: the error of v's direction (its error across it over its
+    length), per component. Returns (rescaled, bound); at rest in float64 the GPU's v may be off
+    0, and rescaled to any direction."""
+    number = v2 - work
+    e_number = e_v2 + e_work + 3 * U * (v2 + np.abs(work))
     scale = np.sqrt(np.maximum(number, 0) / np.where(v2 > 0, v2, 1))
     rescaled = np.where((v2 > 0)[:, None], turned * scale[:, None], turned)
     magnitude = np.sqrt(np.maximum(number, 0))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from bounds import (DIVISION_ULPS, EXP_ULPS, HASH_ERROR, NORMALIZE, U, codec_error,
-                    decode_error, half_code, push_out_rescale, rounding_error)
+                    decode_error, half_code, push_out_rescale, push_out_work, rounding_error)
 from es2particles import ParameterError, Simulation
 from es2particles.fields.field2d import Box, Circle, CollisionField
 from es2particles.scenes.collision import RECT, Collision, CollisionParams
@@ -100,9 +100,10 @@ def _pick(outcomes, chosen, possible):
     return x, v, ex, ev
 
 
-def _contact(state, a, ea, d, ed, n, en, p):
+def _contact(state, a, ea, d, ed, n, en, p, moved, e_moved):
     """respond() of twins/particle.py for a contact at every particle, with its bound. The depth
-    d errs by n . (the position's error) + ``ed``; ``en``: the normal's error per component."""
+    d errs by n . (the position's error) + ``ed``; ``en``: the normal's error per component;
+    ``moved``: the sub-step's move along n, within ``e_moved``."""
     x, v, ex, ev = state
     r, s = p.bounce, p.sliding
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -148,7 +149,7 @@ def _contact(state, a, ea, d, ed, n, en, p):
         e_out = (np.abs(tangent) * _along(tangent, ex)[:, None] + np.abs(n) * ed[:, None]
                  + np.abs(d)[:, None] * en + U * (np.abs(d[:, None] * n) + np.abs(out)))
         # the acceleration's work over the push-out taken from the kinetic energy: the float64
-        # v * sqrt(max(v2 - 2 d a.n, 0) / v2) is sqrt(max(v2 - 2 d a.n, 0)) along v
+        # v * sqrt(max(v2 - work, 0) / v2) is sqrt(max(v2 - work, 0)) along v
         v2 = np.sum(turned * turned, axis=-1)
         an = np.sum(a * n, axis=-1)
         e_v2 = 2 * _along(turned, e_turned) + _norm(e_turned) ** 2 + 2 * U * v2
@@ -158,17 +159,18 @@ def _contact(state, a, ea, d, ed, n, en, p):
             side = _perp(direction)
             return np.abs(side) * np.minimum(2, _along(side, e_turned) / np.sqrt(v2))[:, None]
 
-        rescaled, e_rescaled = push_out_rescale(turned, v2, e_v2, d, e_depth, an, e_an,
-                                                direction_error)
+        work, e_work = push_out_work(turn, turn_unsure[:, 0], vn, e_vn, d, e_depth, an, e_an,
+                                     moved, e_moved, speed, e_speed, v2, e_v2)
+        rescaled, e_rescaled = push_out_rescale(turned, v2, e_v2, work, e_work, direction_error)
     return out, rescaled, e_out, e_rescaled
 
 
-def _contact_where(mask, state, a, ea, d, ed, n, en, p):
+def _contact_where(mask, state, a, ea, d, ed, n, en, p, moved, e_moved):
     """_contact for the particles of ``mask`` (the others keep their state: never taken)."""
     out = [np.array(part) for part in state]
     if mask.any():
         picked = _contact([part[mask] for part in state], a[mask], ea[mask], d[mask], ed[mask],
-                          n[mask], en[mask], p)
+                          n[mask], en[mask], p, moved[mask], e_moved[mask])
         for whole, part in zip(out, picked):
             whole[mask] = part
     return out
@@ -212,8 +214,8 @@ def _collide(state, a, ea, field, p, before, e_before):
     e_mn = _along(n, ex) + e_moved
     contact, back = d < 0, (d < 0) & (mn > 0) & (d > -2 * field.cell)
     may_contact = d < e_depth
-    plain = _contact_where(may_contact, state, a, ea, d, e_d, n, e_n, p)
-    flipped = _contact_where(may_contact, state, a, ea, -mn, e_moved, -n, e_n, p)
+    plain = _contact_where(may_contact, state, a, ea, d, e_d, n, e_n, p, mn, e_mn)
+    flipped = _contact_where(may_contact, state, a, ea, -mn, e_moved, -n, e_n, p, -mn, e_mn)
     may_back = may_contact & (mn > -e_mn) & (d > -2 * field.cell - e_depth)
     may_plain = may_contact & ((mn <= e_mn) | (d <= -2 * field.cell + e_depth))
     state = _pick([state, plain, flipped], [~contact, contact & ~back, back],
@@ -226,7 +228,10 @@ def _collide(state, a, ea, field, p, before, e_before):
         normal[:, axis] = sign
         e_wall = U * np.abs(depth)
         near = depth < ex[:, axis] + e_wall
-        wall = _contact_where(near, state, a, ea, depth, e_wall, normal, np.zeros_like(x), p)
+        along = sign * (x[:, axis] - before[:, axis])
+        e_along = ex[:, axis] + e_before[:, axis] + U * np.abs(along)
+        wall = _contact_where(near, state, a, ea, depth, e_wall, normal, np.zeros_like(x), p,
+                              along, e_along)
         state = _pick([state, wall], [depth >= 0, depth < 0], [depth >= -ex[:, axis] - e_wall,
                                                                near])
     return state

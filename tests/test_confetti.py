@@ -20,10 +20,11 @@ pytestmark = pytest.mark.gl
 @pytest.mark.parametrize("shape", ["sphere:0,1,0,1", "box:0,0.8,0,0.9,0.3,0.6"])
 def test_resting_confetti_lie_flat_on_the_surface_they_touched(gl, shape):
     """Dropped from rest above the object with no randomness in flight: after 4 s the pieces at
-    rest on the floor face (0, 1, 0) and those on the object its analytic normal where they lie,
-    within what the nearest voxel's normal allows (its centre is at most 0.87 voxel from the
-    piece: on a sphere of radius 1 that turns the normal by 0.87 voxel / 1), plus the 8-bit
-    field normal's rounding (0.5 degree)."""
+    rest on the floor face (0, 1, 0) and those at rest on the object its analytic normal where
+    they lie, within what the nearest voxel's normal allows (its centre is at most 0.87 voxel
+    from the piece: on a sphere of radius 1 that turns the normal by 0.87 voxel / 1), plus the
+    8-bit field normal's rounding (0.5 degree). The box's top holds hundreds; the sphere only a
+    few at its top: nothing holds a piece on its slopes (issue 45), and the rest slide off."""
     scene = Confetti(shape=shape, jitter=0.0, lifetime=(400.0, 400.0))
     rng = np.random.default_rng(5)
     n = 4096
@@ -42,7 +43,8 @@ def test_resting_confetti_lie_flat_on_the_surface_they_touched(gl, shape):
     resting = np.linalg.norm(v, axis=1) < 0.05
     on_floor = resting & (x[:, 1] < 0.01) & (d > voxel)
     on_object = resting & (np.abs(d) < 0.5 * voxel) & (x[:, 1] > 0.05)
-    tolerance = np.degrees(0.87 * voxel / (1.0 if "sphere" in shape else np.inf)) + 0.5 + 0.5
+    curved = 1.0 if "sphere" in shape else np.inf
+    tolerance = np.degrees(0.87 * voxel / curved) + 0.5 + 0.5
 
     def angles(expected, mask):
         cos = np.clip(np.sum(facing[mask] * expected, axis=1), -1, 1)
@@ -53,7 +55,11 @@ def test_resting_confetti_lie_flat_on_the_surface_they_touched(gl, shape):
     print(f"{shape}: {on_floor.sum()} resting on the floor, worst {floor_angle.max():.3f} deg; "
           f"{on_object.sum()} on the object, worst {object_angle.max():.3f} deg, median "
           f"{np.median(object_angle):.3f} (allowed {tolerance:.2f})")
-    assert on_floor.sum() > 200 and on_object.sum() > 50
+    assert on_floor.sum() > 200
+    if curved < np.inf:  # nothing holds a piece on the sphere's slopes (issue 45): a few at its
+        assert 0 < on_object.sum() <= 0.01 * n  # top (2 measured; 110 before the fix)
+    else:
+        assert on_object.sum() > 50
     assert floor_angle.max() < 0.5 and object_angle.max() < tolerance
 
 

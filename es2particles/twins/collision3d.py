@@ -24,7 +24,7 @@ def random_tangent(n, turn):
     return side * np.cos(angle)[:, None] + np.cross(n, side) * np.sin(angle)[:, None]
 
 
-def respond(x, v, a, d, n, hit, p, turn):
+def respond(x, v, a, d, n, hit, p, turn, moved):
     vn = np.sum(v * n, axis=1)
     speed = np.linalg.norm(v, axis=1)
     along = v - vn[:, None] * n
@@ -36,7 +36,14 @@ def respond(x, v, a, d, n, hit, p, turn):
     v = np.where((hit & (vn < 0))[:, None], turned, v)
     x = np.where(hit[:, None], x - d[:, None] * n, x)
     v2 = np.sum(v * v, axis=1)
-    scale = np.sqrt(np.maximum(v2 - 2 * d * (n @ a), 0) / np.where(v2 > 0, v2, 1))
+    an = n @ a
+    # turned: over the depth its own move explains, at most the normal speed's share less what
+    # the response took; over any deeper part, the whole work (collision3d.frag)
+    ours = np.maximum(d, np.minimum(moved, 0))
+    capped = np.minimum(2 * ours * an, np.maximum(vn * vn - (speed * speed - v2), 0)) \
+        + 2 * (d - ours) * an
+    work = np.where(hit & (vn < 0), capped, 2 * d * an)
+    scale = np.sqrt(np.maximum(v2 - work, 0) / np.where(v2 > 0, v2, 1))
     return x, np.where((hit & (v2 > 0))[:, None], v * scale[:, None], v)
 
 
@@ -59,7 +66,7 @@ class Object:
         return velocity + np.cross(self.p.spin_axis * self.p.spin_rate, x - centre)
 
 
-def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None):
+def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None, x_before=None):
     field = obj.field
     q = obj.to_object(x, pose)
     d, n = field.sample(q, decoded)
@@ -73,9 +80,11 @@ def collide(x, v, a, q_before, obj, pose, p, turn, decoded=None):
     d = np.where(back, np.sum(moved * n, axis=1), d)
     hit = d < 0
     surface = obj.surface_velocity(x, pose)
-    x, relative = respond(x, v - surface, a, d * p.scale, n @ pose[1].T, hit, p, turn)
+    x, relative = respond(x, v - surface, a, d * p.scale, n @ pose[1].T, hit, p, turn,
+                          np.sum(moved * n, axis=1) * p.scale)
     v = relative + surface
-    x, v = respond(x, v, a, x[:, 1], np.tile([0.0, 1.0, 0.0], (len(x), 1)), x[:, 1] < 0, p, turn)
+    x, v = respond(x, v, a, x[:, 1], np.tile([0.0, 1.0, 0.0], (len(x), 1)), x[:, 1] < 0, p, turn,
+                   x[:, 1] - x_before[:, 1])
     return x, v
 
 
@@ -108,7 +117,7 @@ def step_reference(x, v, field, p, step, substep, surface_speed, random=None, de
                          -p.max_speed, p.max_speed)
             xm = xa[m] + vm * ha[m][:, None]
             xm, vm = collide(xm, vm, a, q_before[active][m], obj, pose, p, r[active][m, 0],
-                             decoded)
+                             decoded, xa[m])
             xn[m], vn[m] = xm, np.clip(vm, -p.max_speed, p.max_speed)
             qn[m] = obj.to_object(xn[m], pose)
         x[active], v[active] = xn, vn

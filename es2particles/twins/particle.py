@@ -11,8 +11,9 @@ def acceleration(x, p):
     return np.asarray(p.gravity, float) + w2 * (np.array([ox, oy]) - x)
 
 
-def respond(x, v, a, d, n, hit, p):
+def respond(x, v, a, d, n, hit, p, moved):
     vn = np.sum(v * n, axis=-1)
+    an = np.sum(a * n, axis=-1)
     turn = hit & (vn < 0)
     speed = np.hypot(v[:, 0], v[:, 1])
     along = v - vn[:, None] * n
@@ -24,7 +25,13 @@ def respond(x, v, a, d, n, hit, p):
     v = np.where(turn[:, None], new_v, v)
     x = np.where(hit[:, None], x - d[:, None] * n, x)
     v2 = np.sum(v * v, axis=-1)
-    scale = np.sqrt(np.maximum(v2 - 2 * d * np.sum(a * n, axis=-1), 0) / np.where(v2 > 0, v2, 1))
+    # turned: over the depth its own move explains, at most the normal speed's share less what
+    # the response took; over any deeper part, the whole work (lib/particle.glsl)
+    ours = np.maximum(d, np.minimum(moved, 0))
+    capped = np.minimum(2 * ours * an, np.maximum(vn * vn - (speed * speed - v2), 0)) \
+        + 2 * (d - ours) * an
+    work = np.where(turn, capped, 2 * d * an)
+    scale = np.sqrt(np.maximum(v2 - work, 0) / np.where(v2 > 0, v2, 1))
     v = np.where((hit & (v2 > 0))[:, None], v * scale[:, None], v)
     return x, v
 
@@ -39,14 +46,15 @@ def collide(x, v, a, field, p, before):
     back = (d < 0) & (np.sum(moved * n, axis=-1) > 0) & (d > -2 * field.cell)
     n = np.where(back[:, None], -n, n)
     d = np.where(back, np.sum(moved * n, axis=-1), d)
-    x, v = respond(x, v, a, d, n, d < 0, p)
+    x, v = respond(x, v, a, d, n, d < 0, p, np.sum(moved * n, axis=-1))
     x0, y0, x1, y1 = field.rect
     for axis, edge, sign in ((0, x0, 1.0), (0, x1, -1.0), (1, y0, 1.0), (1, y1, -1.0)):
         depth = sign * (x[:, axis] - edge)
         normal = np.zeros_like(x)
         normal[:, axis] = sign
-        x, v = respond(x, v, a, depth, normal, depth < 0, p)
+        x, v = respond(x, v, a, depth, normal, depth < 0, p, sign * (x[:, axis] - before[:, axis]))
     return x, v
+
 
 
 def integrate(x, v, field, p):

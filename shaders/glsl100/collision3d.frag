@@ -54,22 +54,34 @@ vec3 random_tangent(vec3 n, float turn)
 // The chapter's response, v' = |v| (n s + t (1 - s)) r, in the frame of the surface (v is the
 // velocity relative to it). Unlike Listing 2.3, whose t = cross(n, v) turns a particle sideways,
 // t is the tangent along the motion (a particle slides on the way it was going), or a random one
-// where v is along n (the chapter's getRandomTangentDir). Then out along n by the depth d < 0; the work of the
-// acceleration over that move is taken from the kinetic energy, so a push-out adds none.
-void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn)
+// where v is along n (the chapter's getRandomTangentDir). Then out along n by the depth d < 0,
+// the push-out's work against the acceleration taken from the kinetic energy; from a turned
+// particle, over the depth its own move explains (``moved``: the sub-step's move along n), at
+// most its normal speed's share vn^2 (a frictionless slide keeps the rest, turned along the
+// surface) less what the response took already: the whole work, taken from what the response
+// had turned along the surface, held particles still on slopes (issue 45). What is left unpaid
+// is at most (a.n h)^2 / 2, below what the sub-step's semi-implicit flight loses.
+void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn, float moved)
 {
     float vn = dot(v, n);
+    float an = dot(a, n);
+    float work = 2.0 * d * an;
     if (vn < 0.0) {
         float speed = length(v);
         vec3 along = v - vn * n;
         float along_length = length(along);
         vec3 t = along_length > 1e-6 * speed ? along / along_length : random_tangent(n, turn);
         v = speed * (n * u_sliding + t * (1.0 - u_sliding)) * u_bounce;
+        // Over the depth its own move explains: at most the normal speed's share vn^2, less
+        // what the response took already; over any deeper part, the whole work
+        float ours = max(d, min(moved, 0.0));
+        work = min(2.0 * ours * an, max(vn * vn - (speed * speed - dot(v, v)), 0.0))
+            + 2.0 * (d - ours) * an;
     }
     x -= d * n;
     float v2 = dot(v, v);
     if (v2 > 0.0) {
-        v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);
+        v *= sqrt(max(v2 - work, 0.0) / v2);
     }
 }
 
@@ -78,7 +90,8 @@ void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn)
 // where the surface faces the other way, came through the far side of a thin wall: it leaves by
 // the side it came from (see collide() in lib/particle.glsl); sub-steps move at most half a voxel
 // relative to the object.
-void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, Pose pose, float turn)
+void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, vec3 x_before, Pose pose,
+             float turn)
 {
     vec3 q = to_object(x, pose);
     float d;
@@ -106,12 +119,12 @@ void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, Pose pose, float
         vec3 surface = surface_velocity(x, pose);
         vec3 relative = v - surface;
         vec3 world = rotate(n, u_spin.xyz, pose.angle);
-        respond(x, relative, a, d * u_pose.w, world, turn);
+        respond(x, relative, a, d * u_pose.w, world, turn, dot(q - q_before, n) * u_pose.w);
         v = relative + surface;
         touched = world;
     }
     if (x.y < 0.0) {
-        respond(x, v, a, x.y, vec3(0.0, 1.0, 0.0), turn);
+        respond(x, v, a, x.y, vec3(0.0, 1.0, 0.0), turn, x.y - x_before.y);
         touched = vec3(0.0, 1.0, 0.0);
     }
 }
@@ -134,8 +147,9 @@ void integrate(inout vec3 x, inout vec3 v, vec4 r)
         }
         Pose pose = object_pose(t0 + (float(i) + 1.0) * h);
         v = clamp(v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);
+        vec3 x0 = x;
         x += v * h;
-        collide(x, v, u_gravity, q_before, pose, r.x);
+        collide(x, v, u_gravity, q_before, x0, pose, r.x);
         v = clamp(v, -u_max_speed, u_max_speed);
         q_before = to_object(x, pose);
     }

@@ -49,9 +49,12 @@ vec2 acceleration(vec2 x)
     return u_gravity + u_spring.z * (u_spring.xy - x);
 }
 
-void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n)
+// moved: the sub-step's move along n (negative: into the surface).
+void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n, float moved)
 {
     float vn = dot(v, n);
+    float an = dot(a, n);
+    float work = 2.0 * d * an;  // the push-out's work against the acceleration, in v^2
     if (vn < 0.0) {
         // The chapter's response: v' = |v| (n s + t (1 - s)) r, t the tangent along the motion.
         // A head-on hit (v along n) has no direction to slide in: its whole speed goes back along
@@ -65,13 +68,23 @@ void respond(inout vec2 x, inout vec2 v, vec2 a, float d, vec2 n)
         } else {
             v = speed * n * u_bounce;
         }
+        // The work taken from a turned particle, over the depth its own move explains: at most
+        // its normal speed's share vn^2 (a frictionless slide keeps the rest, turned along the
+        // surface), less what the response took already; over any deeper part, the whole work.
+        // The whole work, taken from what the response had turned along the surface, held
+        // particles still on slopes (issue 45). What is left unpaid (where the work exceeds vn^2:
+        // a normal speed under 2 a.n h) is at most (a.n h)^2 / 2, below the (a h)^2 / 2 the
+        // sub-step's semi-implicit flight loses: a contact still adds no energy.
+        float ours = max(d, min(moved, 0.0));
+        work = min(2.0 * ours * an, max(vn * vn - (speed * speed - dot(v, v)), 0.0))
+            + 2.0 * (d - ours) * an;
     }
-    // Out of the object along the normal by the penetration depth. The work of the acceleration
-    // over that move is taken from the kinetic energy, so a push-out never adds energy.
+    // Out of the object along the normal by the penetration depth, the work taken from the
+    // kinetic energy.
     x -= d * n;
     float v2 = dot(v, v);
     if (v2 > 0.0) {
-        v *= sqrt(max(v2 - 2.0 * d * dot(a, n), 0.0) / v2);
+        v *= sqrt(max(v2 - work, 0.0) / v2);
     }
 }
 
@@ -94,23 +107,23 @@ void collide(inout vec2 x, inout vec2 v, vec2 a, vec2 before)
             n = -n;
             d = dot(moved, n);
         }
-        respond(x, v, a, d, n);
+        respond(x, v, a, d, n, dot(moved, n));
     }
     // Walls and floor, the edges of the scene rectangle: exact planes, so a corner holds no
     // cell whose one normal hides the other wall.
     vec2 lo = u_field_rect.xy;
     vec2 hi = u_field_rect.xy + u_field_rect.zw;
     if (x.x < lo.x) {
-        respond(x, v, a, x.x - lo.x, vec2(1.0, 0.0));
+        respond(x, v, a, x.x - lo.x, vec2(1.0, 0.0), x.x - before.x);
     }
     if (x.x > hi.x) {
-        respond(x, v, a, hi.x - x.x, vec2(-1.0, 0.0));
+        respond(x, v, a, hi.x - x.x, vec2(-1.0, 0.0), before.x - x.x);
     }
     if (x.y < lo.y) {
-        respond(x, v, a, x.y - lo.y, vec2(0.0, 1.0));
+        respond(x, v, a, x.y - lo.y, vec2(0.0, 1.0), x.y - before.y);
     }
     if (x.y > hi.y) {
-        respond(x, v, a, hi.y - x.y, vec2(0.0, -1.0));
+        respond(x, v, a, hi.y - x.y, vec2(0.0, -1.0), before.y - x.y);
     }
 }
 

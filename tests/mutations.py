@@ -453,7 +453,7 @@ MUTATIONS = (
              ("tests/test_trails.py",)),
     Mutation("ribbons-newest-band-lags", "trails",
              "the strips read the history one band behind the one just written",
-             (("es2particles/frame/ribbons.py",
+             (("es2particles/frame/trails.py",
                "repeat=tuple({\"u_newest\": float(j)} for j in range(k)), per_frame=1,",
                "repeat=tuple({\"u_newest\": float((j - 1) % k)} for j in range(k)), per_frame=1,"),),
              ("tests/test_trails.py",)),

@@ -10,7 +10,7 @@ import pytest
 
 from conftest import command
 from es2particles.frame.pipeline import Pipeline
-from es2particles.frame.ribbons import COLOUR_2D
+from es2particles.frame.trails import COLOUR_2D
 from es2particles.scenes.dejong import DeJong
 from es2particles.scenes.fountain import Fountain
 from es2particles.scenes.wind import Wind

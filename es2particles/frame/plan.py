@@ -471,20 +471,17 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     rendering.check_reads(scene, graph)
     b.size = size
     outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
-    trails, opacity = parse_trails(b.setting("trails", "off"))  # opacity: K for ribbons
+    trails, value = parse_trails(b.setting("trails", "off"))  # the fade's opacity, ribbons' K
     if trails == "ribbons" and "life" in graph.quantities and graph.writer("life") is not None:
         outputs = tuple(dict.fromkeys(outputs + ("life",)))  # a ribbon ends where a life does
     count = b.setting("particles", defaults.particles) if graph.quantities else None
     plan_simulation(b, graph, outputs, count, b.setting("format", "rgba8"),
                     b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)
-    if trails == "fade":
-        present = plan_fade_trails(b, present, opacity)
-    elif trails == "ribbons":
-        from .ribbons import plan_ribbons
+    if trails != "off":
+        from .trails import plan_trails
 
-        plan_ribbons(b, present, opacity, None if rendering.has_camera
-                     else getattr(rendering, "view", None), scene.stateless)
+        present = plan_trails(b, present, trails, value, rendering, scene)
     culled = _cull(b.stages, present)
     b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
                    for s in b.stages if s.name in culled]
@@ -499,20 +496,6 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     dt=scene.time_step(b.setting("particles", defaults.particles)),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
-
-
-def plan_fade_trails(b, present, opacity):
-    """Screen-space trails over the presented picture: a pair of targets kept from frame to
-    frame, each frame the brighter of the new picture and the last frame's times ``opacity``
-    less 0.6 of a code (``post/trails.frag``). Returns the new presented resource."""
-    w, h = b.resources[present].size
-    b.resource(Resource("trails", "target", (w, h), "rgba8", buffers=2, swap="draw",
-                        linear=True, what="the picture with the frames before it fading"))
-    b.stage(Stage("trails", "post", "post/trails.frag",
-                  inputs={"u_picture": Ref(present), "u_trail": Ref("trails")},
-                  target=Ref("trails"), uniforms={"u_keep": float(opacity)},
-                  what=f"the brighter of the picture and the last frame's times {opacity:g}"))
-    return "trails"
 
 
 def scene_graph(scene, caps, count=None):
@@ -571,5 +554,7 @@ class Rendering:
 
     def warnings(self, camera, size):
         """Why a feature switched on may barely show in a picture of ``size`` seen by ``camera``:
-        one line each (none by default)."""
-        return ()
+        one line each: the light shafts' (``render/shafts.py``) of a rendering that has them in
+        a ``shafts`` field; none otherwise."""
+        shafts = getattr(self, "shafts", None)
+        return () if shafts is None else shafts.warnings(camera, size)

@@ -98,9 +98,6 @@ class Quads(Rendering):
     def reads(self):
         return tuple(dict.fromkeys(self.roles.values()))
 
-    def warnings(self, camera, size):
-        return () if self.shafts is None else self.shafts.warnings(camera, size)
-
     def plan(self, b, defaults):
         """Add the mesh stages and the quads' stage to plan builder ``b``; the image is what the
         frame presents."""

@@ -316,9 +316,6 @@ class Sprites(Rendering):
                 f"distance {d:.3g} from its target; raise the point size, lower the "
                 f"attenuation or bring the camera closer (or the particles are out of sight)")
 
-    def warnings(self, camera, size):
-        return () if self.shafts is None else self.shafts.warnings(camera, size)
-
     def plan(self, b, defaults):
         """Add the sort, shadow map, mesh and sprite stages to plan builder ``b``; the image is
         what the frame presents."""

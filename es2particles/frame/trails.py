@@ -1,6 +1,11 @@
-"""Ribbons (``--trails ribbons:K``): each particle's positions of the last K frames, kept in a
-history and drawn as a strip, fading with age (Niagara's and VFX Graph's ribbons, in ES 2.0
-passes).
+"""Trails over an animation's frames (``--trails``), after whatever the rendering presents.
+
+The fade (``fade:OPACITY``, webgl-wind's): each frame the brighter of the new picture and the
+last frame's times OPACITY, less 0.6 of a code, kept in a pair of targets
+(``post/trails.frag``).
+
+Ribbons (``ribbons:K``): each particle's positions of the last K frames, kept in a history and
+drawn as a strip, fading with age (Niagara's and VFX Graph's ribbons, in ES 2.0 passes).
 
 The history is a float target of K bands, each the particle texture's size (W x H K): band k
 holds every particle's position in rgb, and in alpha its age plus one where the scene has a
@@ -31,6 +36,30 @@ COLOUR = (0.45, 0.32, 0.18)  # added over a 3D picture
 # Added over a 2D density picture, whose particles follow each other along the flow: fainter.
 COLOUR_2D = (0.09, 0.064, 0.036)
 HISTORY_FORMATS = ("rgba32f", "rgba16f")
+
+
+def plan_trails(b, present, kind, value, rendering, scene):
+    """Add the trails of ``kind`` ("fade", of opacity ``value``, or "ribbons", of ``value``
+    positions) over the presented resource ``present`` of ``rendering``, ``scene``'s, to plan
+    builder ``b``. Returns the new presented resource."""
+    if kind == "fade":
+        return plan_fade(b, present, value)
+    return plan_ribbons(b, present, value, None if rendering.has_camera
+                        else getattr(rendering, "view", None), scene.stateless)
+
+
+def plan_fade(b, present, opacity):
+    """Screen-space trails over the presented picture: a pair of targets kept from frame to
+    frame, each frame the brighter of the new picture and the last frame's times ``opacity``
+    less 0.6 of a code (``post/trails.frag``). Returns the new presented resource."""
+    w, h = b.resources[present].size
+    b.resource(Resource("trails", "target", (w, h), "rgba8", buffers=2, swap="draw",
+                        linear=True, what="the picture with the frames before it fading"))
+    b.stage(Stage("trails", "post", "post/trails.frag",
+                  inputs={"u_picture": Ref(present), "u_trail": Ref("trails")},
+                  target=Ref("trails"), uniforms={"u_keep": float(opacity)},
+                  what=f"the brighter of the picture and the last frame's times {opacity:g}"))
+    return "trails"
 
 
 def ribbon_vertices(count, width, height, k):

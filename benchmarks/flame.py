@@ -21,6 +21,7 @@ import numpy as np
 from es2particles import open_context
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.flame import blackbody_ramp
+from es2particles.report.measure import median_time
 from es2particles.scenes.flame import Flame
 from es2particles.twins.flame import march, noise_field
 
@@ -35,15 +36,8 @@ def picture(ctx, size, **options):
         image = p.image().astype(float)
         stages = [s for s in p.plan.stages if s.kind in ("flame", "splat")]
         frame = p.executor.frame(p.camera(0, 1))
-        times = []
-        for _ in range(6):
-            ctx.finish()
-            start = time.perf_counter()
-            for stage in stages:
-                p.executor.run(stage, frame)
-            ctx.finish()
-            times.append(time.perf_counter() - start)
-        return image, 1e3 * float(np.median(times[1:])), p
+        seconds = median_time(lambda: [p.executor.run(s, frame) for s in stages], ctx.finish)
+        return image, 1e3 * seconds, p
 
 
 def numpy_peer(size, steps):

@@ -13,12 +13,12 @@ is compared is how taps, passes and resolution trade error for time. docs/shafts
 """
 
 import argparse
-import time
 
 import numpy as np
 
 from es2particles import open_context
 from es2particles.frame.pipeline import Pipeline
+from es2particles.report.measure import median_time
 from es2particles.scenes.confetti import Confetti
 
 STRUCTURES = {
@@ -42,15 +42,8 @@ def picture(ctx, size, particles, **options):
         image = p.image().astype(float)
         stages = [s for s in p.plan.stages if s.kind == "shafts"]
         frame = p.executor.frame(p.camera(0, 1))
-        times = []
-        for _ in range(6):
-            ctx.finish()
-            start = time.perf_counter()
-            for stage in stages:
-                p.executor.run(stage, frame)
-            ctx.finish()
-            times.append(time.perf_counter() - start)
-        return image, 1e3 * float(np.median(times[1:]))
+        seconds = median_time(lambda: [p.executor.run(s, frame) for s in stages], ctx.finish)
+        return image, 1e3 * seconds
 
 
 def main(argv=None):

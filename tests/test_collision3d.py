@@ -894,32 +894,17 @@ def test_released_at_rest_on_a_frictionless_sphere_a_particle_slides(gl, tilt):
     a sub-step's own move explains, it takes at most the normal speed's share that came in."""
     p = Collision3DParams(jitter=0.0, viscosity=0.0, bounce=1.0, sliding=0.0,
                           lifetime=(400.0, 400.0))
-    scene = Collision3D(p.changed(shape="sphere:0,1,0,1"))
-    sim = Simulation(gl, scene.graph(), 1024, fmt="rgba32f")
-    try:
-        n = sim.count
-        azimuth = np.linspace(0, 2 * np.pi, n, endpoint=False)
-        theta0 = np.radians(tilt)
-        x = np.column_stack([np.sin(theta0) * np.cos(azimuth), 1 + np.cos(theta0) + 0 * azimuth,
-                             np.sin(theta0) * np.sin(azimuth)])
-        sim.upload("position", x)
-        sim.upload("velocity", np.zeros((n, 3)))
-        sim.upload("life", np.tile([1.0, 300.0], (n, 1)))
-        steps = int(round(0.3 / p.dt))
-        sim.run(steps)
-        x = sim.download("position")
-        r = x - np.array([0.0, 1.0, 0.0])
-        theta = np.arccos(np.clip(r[:, 1] / np.linalg.norm(r, axis=1), -1, 1))
-        want, on = _slide_on_sphere(theta0, -p.gravity[1], steps * p.dt)
-        assert on
-        turned = theta - theta0
-        print(f"tilt {tilt:g}: turned {np.degrees(np.median(turned)):.2f} degrees (model "
-              f"{np.degrees(want - theta0):.2f}), spread {np.degrees(np.ptp(turned)):.2f}")
-        model = want - theta0
-        # The median within 5% (the step's discretisation); each particle within that and what
-        # its normal's error (1.9 degrees at worst) does to g sin(theta): a share cot(theta) as
-        # large, relative
-        assert abs(np.median(turned) - model) < 0.05 * model
-        assert np.all(np.abs(turned - model) < (0.06 + np.radians(1.9) / np.tan(theta0)) * model)
-    finally:
-        sim.release()
+    seconds = round(0.3 / p.dt) * p.dt
+    theta0 = np.radians(tilt)
+    theta, _ = _released_on_sphere(gl, p, tilt, seconds)
+    want, on = _slide_on_sphere(theta0, -p.gravity[1], seconds)
+    assert on
+    turned = theta - theta0
+    print(f"tilt {tilt:g}: turned {np.degrees(np.median(turned)):.2f} degrees (model "
+          f"{np.degrees(want - theta0):.2f}), spread {np.degrees(np.ptp(turned)):.2f}")
+    model = want - theta0
+    # The median within 5% (the step's discretisation); each particle within that and what
+    # its normal's error (1.9 degrees at worst) does to g sin(theta): a share cot(theta) as
+    # large, relative
+    assert abs(np.median(turned) - model) < 0.05 * model
+    assert np.all(np.abs(turned - model) < (0.06 + np.radians(1.9) / np.tan(theta0)) * model)

@@ -48,6 +48,7 @@ def test_forced_backend_is_tried_alone(monkeypatch):
     assert set(tried) == {"egl"}  # once for each profile, no other back-end
 
 
+@pytest.mark.gl
 def test_core_profile_is_the_fallback(monkeypatch):
     """A driver that refuses a compatibility context, or gives one older than GL 3.3, gets core."""
     real = moderngl.create_context

@@ -88,11 +88,21 @@ MOVING = ["--animate-to", "1.9,-2.1,2.2,-1.8"]
     ["--trails", "ribbons:1", "--frames", "3", *MOVING],
     ["--trails", "ribbons:65", "--frames", "3", *MOVING],
     ["--trails", "ribbons:x", "--frames", "3", *MOVING],
-    ["--trails", "ribbons:64", "--frames", "3", *MOVING],  # 2^20: 64 x 1024 rows
 ])
 def test_bad_trails_are_one_line(tmp_path, words):
     out = tmp_path / "x.webp"
     code, lines = command("run", "dejong", "--size", "32x32", *words, "--out", str(out))
+    assert code == 2 and len(lines) == 1 and "--trails" in lines[0], lines
+    assert not out.exists()
+
+
+@pytest.mark.gl
+def test_ribbons_taller_than_the_largest_texture_are_one_line(tmp_path):
+    """64 bands of the 2^20 particles' 1,024 rows pass any context's largest texture: refused
+    when the frame is planned on the context, in one line naming --trails."""
+    out = tmp_path / "x.webp"
+    code, lines = command("run", "dejong", "--size", "32x32", "--trails", "ribbons:64",
+                          "--frames", "3", *MOVING, "--out", str(out))
     assert code == 2 and len(lines) == 1 and "--trails" in lines[0], lines
     assert not out.exists()
 

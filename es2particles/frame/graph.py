@@ -620,3 +620,18 @@ class PassGraph:
                                  f"{', '.join(p.name for p in ordered[at[0]:at[-1] + 1])} "
                                  "between them")
         return ordered
+
+
+def scene_graph(scene, caps, count=None):
+    """``scene.graph(caps)``; a plug-in scene whose ``graph()`` takes no capabilities is called
+    without them, and a scene whose ``graph`` takes ``count`` (a length that follows the
+    particle count: the liquid's h) gets the run's."""
+    import inspect
+
+    try:
+        parameters = inspect.signature(scene.graph).parameters
+    except (TypeError, ValueError):
+        return scene.graph(caps)
+    if "count" in parameters:
+        return scene.graph(caps, count=count)
+    return scene.graph(caps) if parameters else scene.graph()

@@ -29,6 +29,7 @@ import numpy as np
 from ..errors import CapabilityError, GraphError, ParameterError, check_range
 from ..gl.bindings import generated_values, pass_interface, uniform_value
 from ..gl.context import Capabilities
+from .graph import scene_graph
 from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import IDENTITY
@@ -481,7 +482,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     if trails != "off":
         from .trails import plan_trails
 
-        present = plan_trails(b, present, trails, value, rendering, scene)
+        present = plan_trails(b, present, trails, value, rendering)
     culled = _cull(b.stages, present)
     b.left_out += [f"{s.kind} stage {s.name} (nothing reads {s.target.resource})"
                    for s in b.stages if s.name in culled]
@@ -496,21 +497,6 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     dt=scene.time_step(b.setting("particles", defaults.particles)),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
-
-
-def scene_graph(scene, caps, count=None):
-    """``scene.graph(caps)``; a plug-in scene whose ``graph()`` takes no capabilities is called
-    without them, and a scene whose ``graph`` takes ``count`` (a length that follows the
-    particle count: the liquid's h) gets the run's."""
-    import inspect
-
-    try:
-        parameters = inspect.signature(scene.graph).parameters
-    except (TypeError, ValueError):
-        return scene.graph(caps)
-    if "count" in parameters:
-        return scene.graph(caps, count=count)
-    return scene.graph(caps) if parameters else scene.graph()
 
 
 def _cull(stages, present):

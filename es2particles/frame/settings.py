@@ -209,6 +209,17 @@ def parse_trails(text):
     raise ParameterError(f"--trails must be off, fade:OPACITY or ribbons:K, got {text!r}")
 
 
+# The settings of a frame's state: a frame that keeps none (an empty pass graph) uses none.
+STATE_SETTINGS = ("particles", "format", "rounding", "seed")
+
+
+def _keeps_state(scene):
+    """Whether ``scene``'s pass graph declares any quantity (for the stated capabilities)."""
+    from .graph import scene_graph
+
+    return bool(scene_graph(scene, None).quantities)
+
+
 def frames_independent(scene, settings):
     """Whether a frame of ``scene`` needs nothing drawn before it: a stateless (reseeded) scene
     without trails (a trail is the frames before)."""
@@ -230,12 +241,19 @@ def check_settings(settings, scene, rendering=None):
                              f"{scene.name!r} does not use "
                              f"{'this setting' if len(unused) == 1 else 'these settings'} "
                              f"({rendering.kind})")
+    stateful = [n for n in STATE_SETTINGS if n in settings.given()]
+    if stateful and not rendering.reads and not _keeps_state(scene):
+        raise ParameterError(f"{OPTIONS.get(stateful[0], stateful[0])}: scene {scene.name!r} "
+                             "keeps no state here (no particles, no grid): nothing to count, "
+                             "store, round or seed")
     given = {name: getattr(settings, name) for name in settings.given()}
     for name, value in given.items():
         if name == "size":
             parse_size(value, MAX_SIZE)
-        elif name == "trails":
-            parse_trails(value)
+        elif name == "trails" and parse_trails(value)[0] == "ribbons" and scene.stateless:
+            raise ParameterError(f"--trails {value}: scene {scene.name!r} places its particles "
+                                 "afresh each step, so their positions make no path; use "
+                                 "--trails fade:OPACITY")
         elif name in SETTINGS and not SETTINGS[name].text:
             SETTINGS[name].convert(value, name)
     rendering.check_settings({n: v for n, v in given.items() if n in rendering.settings})

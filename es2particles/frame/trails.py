@@ -38,14 +38,14 @@ COLOUR_2D = (0.09, 0.064, 0.036)
 HISTORY_FORMATS = ("rgba32f", "rgba16f")
 
 
-def plan_trails(b, present, kind, value, rendering, scene):
+def plan_trails(b, present, kind, value, rendering):
     """Add the trails of ``kind`` ("fade", of opacity ``value``, or "ribbons", of ``value``
-    positions) over the presented resource ``present`` of ``rendering``, ``scene``'s, to plan
-    builder ``b``. Returns the new presented resource."""
+    positions) over the presented resource ``present`` of ``rendering`` to plan builder ``b``.
+    Returns the new presented resource."""
     if kind == "fade":
         return plan_fade(b, present, value)
     return plan_ribbons(b, present, value, None if rendering.has_camera
-                        else getattr(rendering, "view", None), scene.stateless)
+                        else getattr(rendering, "view", None))
 
 
 def plan_fade(b, present, opacity):
@@ -81,15 +81,11 @@ def ribbon_indices(count, k):
     return (base[:, None] + np.array([0, 1, 2, 2, 1, 3])).astype(np.uint32).ravel()
 
 
-def plan_ribbons(b, present, k, view=None, stateless=False):
+def plan_ribbons(b, present, k, view=None):
     """Add the ribbons' history and strips to plan builder ``b``, drawn over the presented
     resource ``present`` (which stays the presented one). ``view``: a 2D scene's world
-    rectangle (x0, y0, x1, y1); None: the 3D camera's view-projection. ``stateless``: the scene
-    reseeds its particles each step, so their positions make no path: refused."""
-    if stateless:
-        raise ParameterError(f"--trails ribbons:{k}: scene {b.scene_name!r} places its "
-                             "particles afresh each step, so their positions make no path; use "
-                             "--trails fade:OPACITY")
+    rectangle (x0, y0, x1, y1); None: the 3D camera's view-projection. (A reseeded scene's
+    particles make no path: check_settings refuses its ribbons.)"""
     layout, caps = b.layout, b.caps
     quantities = b.graph_plan.quantities if b.graph_plan is not None else {}
     if "position" not in quantities or layout.count == 0:

@@ -134,14 +134,6 @@ class Flame(Rendering):
 
     def plan(self, b, defaults):
         """The splat (grid source), the march and nothing else: the march writes the picture."""
-        if self.source == "noise":
-            from ..frame.settings import OPTIONS
-
-            given = [n for n in ("particles", "format", "rounding", "seed")
-                     if n in b.settings.given()]
-            if given:
-                raise ParameterError(f"{OPTIONS.get(given[0], given[0])}: the noise flame has no "
-                                     "particles, and no state to keep")
         w, h = b.size
         inputs = {}
         b.resource(Resource("flame ramp", "image", (RAMP_SIZE, 1), "rgba8", data=ramp_image(),

@@ -12,6 +12,11 @@ from es2particles.gl.bindings import READ_SALTS
 from es2particles.scenes import Clifford
 from es2particles.scenes.clifford import clifford_map
 
+
+class Clifford16(Clifford):
+    """Clifford with its state in 16-bit codes, where rounding acts (the scene's own is 32-bit)."""
+    state_bits = 16
+
 ISSUE_COEFFICIENTS = (-1.4, 1.6, 1.0, 0.7)
 
 
@@ -75,11 +80,10 @@ def test_one_step_matches_float64(gl):
 
 @pytest.mark.parametrize("rounding", ["jitter", "dither"])
 def test_stateful_density_correlates_with_float64(gl, rounding):
-    """Stateful, with jittered reads (the scene's default) or dithered writes. Under jitter each
+    """Stateful in 16-bit codes, with jittered reads or dithered writes. Under jitter each
     step starts from the stored positions plus each read's offset within its code
     (bounds.read_jitter); dithered, from the stored positions, and the write errs by a code."""
-    scene = Clifford(coefficients=ISSUE_COEFFICIENTS)
-    assert scene.defaults.rounding == "jitter"
+    scene = Clifford16(coefficients=ISSUE_COEFFICIENTS)
     steps = 20
     x0, y0, x1, y1 = scene.range
     with Simulation(gl, scene.graph(), 2 ** 18, rounding=rounding) as sim:

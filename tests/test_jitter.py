@@ -17,6 +17,11 @@ from es2particles.gl.bindings import READ_SALTS
 from es2particles.scenes import DeJong, Fountain
 from test_render import binned
 
+
+class DeJong16(DeJong):
+    """De Jong with its state in 16-bit codes, where rounding acts (the scene's own is 32-bit)."""
+    state_bits = 16
+
 LO, HI = -2.0, 2.0
 CODE = (HI - LO) / CODES
 SPREAD = 0.5 - 1 / 64  # the largest offset, in codes: half a code less the dead zone
@@ -112,15 +117,18 @@ def stage_reads_jittered(stage):
 def test_every_stage_that_reads_packed_state_jitters_and_only_under_jitter():
     """The plan gives STATE_JITTER and the step to the pass and the points draw alike (the draw's
     reads get their own salt); post stages read no state; other roundings give neither."""
-    plan = plan_frame(DeJong(), FrameSettings(rounding="jitter"))
+    plan = plan_frame(DeJong16(), FrameSettings(rounding="jitter"))
     jittered = {s.name for s in plan.stages if stage_reads_jittered(s)}
     assert jittered == {"pass 'dejong'", "points"}, jittered
     vertex = next(s for s in plan.stages if s.name == "points").vertex_interface.text
     assert f"state_jitter(uv * u_state_size, {READ_SALTS['draw']:.1f})" in vertex
     for rounding in ("nearest", "dither"):
-        plan = plan_frame(DeJong(), FrameSettings(rounding=rounding))
+        plan = plan_frame(DeJong16(), FrameSettings(rounding=rounding))
         assert not any("STATE_JITTER" in s.defines for s in plan.stages)
-    assert plan_frame(DeJong(), FrameSettings()).rounding == "jitter"  # the attractors' default
+    # The attractors' own state is 32-bit, read and written to the nearest value.
+    plan = plan_frame(DeJong(), FrameSettings())
+    assert plan.rounding == "nearest"
+    assert plan.resources["position"].format == "rgba8_32"
 
 
 def test_a_quantity_pinned_to_its_storage_reads_its_code_exactly():
@@ -143,7 +151,7 @@ def test_the_points_draw_puts_each_point_where_its_jittered_read_says(gl):
     view = DeJong().view
     pixel = (view[2] - view[0]) / size[0]
     rng = np.random.default_rng(8)
-    with Pipeline(gl, DeJong(), count, size, rounding="jitter", steps=0) as p:
+    with Pipeline(gl, DeJong16(), count, size, rounding="jitter", steps=0) as p:
         texels = np.floor(p.sim.layout.texel_uv() * p.sim.layout.size)
         offsets, error = read_jitter(texels, 0, READ_SALTS["draw"], (HI - LO, HI - LO))
         j, e = offsets[:, 0] / CODE, error[:, 0] / CODE  # in codes

@@ -30,18 +30,18 @@ def plan_of(scene, **settings):
 def test_an_attractor_s_estimate_is_its_state_targets_vertices_and_largest_phase():
     plan = plan_of(DeJong(), bloom=None, gradient=None)
     need = memory.estimate(plan)
-    # One quantity of two components (position), ping-pong, two 16-bit values to an RGBA8 texel;
+    # One quantity of two components (position), ping-pong, one 32-bit value to an RGBA8 texel;
     # a float32 density and its RGBA8 tone map at the picture's size; a texel per particle.
     assert need.held == {
-        "state": {"--particles": TEXELS * 4 * 2},
+        "state": {"--particles": TEXELS * 4 * 2 * 2},
         "targets": {"--size": PIXELS * 4 + PIXELS * 4},
         "vertex buffers": {"--particles": COUNT * 8},
         "driver": {None: memory.DRIVER, "--particles": COUNT * memory.BINS}}
     assert need.peaks == {
-        "start": {"--particles": COUNT * 2 * 8 + COUNT * 2 * memory.PACK_RGBA8},  # float64, packing
+        "start": {"--particles": COUNT * 2 * 8 + COUNT * 2 * memory.PACK_RGBA8_32},  # float64, packing
         "making": {"--particles": (TEXELS + COUNT) * 8},  # the texel centres and their copy
         "frames": {"--size": PIXELS * memory.IMAGE_READ}}
-    assert need.total == (TEXELS * 8 + PIXELS * 8 + COUNT * 8 + memory.DRIVER
+    assert need.total == (TEXELS * 16 + PIXELS * 8 + COUNT * 8 + memory.DRIVER
                           + COUNT * memory.BINS + PIXELS * memory.IMAGE_READ)
     assert need.made == 0
     # An animation: the reseeded points' tile order and the frames its writer holds.

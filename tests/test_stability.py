@@ -122,7 +122,9 @@ def test_injected_nan_and_inf_are_contained(gl, fmt):
 
 @pytest.mark.parametrize("fmt", ["rgba16f", "rgba32f"])
 def test_dejong_resets_a_non_finite_particle_to_its_grid_start(gl, fmt):
-    scene = DeJong()
+    from test_jitter import DeJong16  # its position stays rgba16f in an rgba16f simulation
+
+    scene = DeJong16()
     with Simulation(gl, scene.graph(), 256, fmt=fmt) as sim:
         scene.initialise(sim, np.random.default_rng(0))
         texels = sim.buffers["position"].read_texels().astype(np.float32).copy()

@@ -16,7 +16,7 @@ from es2particles.scenes import Clifford, Collision, DeJong
 @pytest.mark.gl
 @pytest.mark.parametrize("scene, settings", [
     (DeJong(), {}), (DeJong(reseed=True), {"accumulate": 3}), (Clifford(), {"fmt": "rgba32f"}),
-    (DeJong(), {"fmt": "rgba16f"}), (Collision(), {"steps": 60})], ids=lambda v: str(v)[:30])
+    (DeJong(reseed=True), {"fmt": "rgba16f"}), (Collision(), {"steps": 60})], ids=lambda v: str(v)[:30])
 def test_the_density_read_back_is_the_fetched_one(gl, scene, settings):
     densities, images = [], []
     for fetch in ("on", "off"):

@@ -39,7 +39,7 @@ from ..errors import CapabilityError, ParameterError
 from ..frame.plan import frame_value, plan_frame
 from ..frame.settings import DEFAULT
 from ..frame.state import as_rows, encode_values, fill_texels, part_textures, zero_texels
-from ..gl.context import Capabilities
+from ..gl.context import Capabilities, texture_format
 from ..gl.shaders import expand
 
 DENSITY_PATHS = ("float", "half", "bytes")
@@ -157,7 +157,7 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
     settings = page_settings(settings, **given)
     plan = plan_frame(scene, settings, PAGE_CAPS)
     for name, r in plan.resources.items():
-        if r.kind == "state" and r.format != "rgba8":
+        if r.kind == "state" and texture_format(r.format) != "rgba8":
             raise CapabilityError(f"quantity {name!r} is pinned to {r.format}; the page keeps "
                                   "every quantity in rgba8, the one format every ES 2.0 context "
                                   "renders to")
@@ -251,7 +251,8 @@ def _json_number(value):
 
 
 def _resource(r, layout, start):
-    entry = {"kind": r.kind, "width": r.size[0], "height": r.size[1], "format": r.format,
+    entry = {"kind": r.kind, "width": r.size[0], "height": r.size[1],
+             "format": texture_format(r.format),
              "parts": r.parts, "buffers": r.buffers, "swap": r.swap, "depth": r.depth,
              "linear": r.linear}
     if r.kind == "state":

@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import Es2ParticlesError, ParameterError, ShaderError
 from ..gl.bindings import uniform_value
 from ..gl.command import DrawCommand
+from ..gl.context import numpy_dtype
 from .motion import model_uniform
 from .plan import frame_value
 from .state import StateBuffer, Textures
@@ -96,7 +97,8 @@ class Executor:
         if stage.attributes:  # state read back before each draw: bytes as bytes, floats as floats
             vertices = vertices or []
             for attribute, ref in stage.attributes.items():
-                bytes_per = 4 if self.plan.resources[ref.resource].format == "rgba8" else 16
+                bytes_per = 4 if numpy_dtype(self.plan.resources[ref.resource].format) == np.uint8 \
+                    else 16
                 buffer = self.group.buffer(bytes(stage.count * bytes_per))
                 self.buffers[(stage.name, attribute)] = buffer
                 vertices.append((buffer, "4f1" if bytes_per == 4 else "4f", attribute))
@@ -209,8 +211,7 @@ class Executor:
         which ES 2.0 attributes take)."""
         fmt = self.plan.resources[ref.resource].format
         raw = self.ctx.read(self.texture(ref))
-        dtype = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}[fmt]
-        texels = np.frombuffer(raw, dtype).reshape(-1, 4)[:stage.count]
+        texels = np.frombuffer(raw, numpy_dtype(fmt)).reshape(-1, 4)[:stage.count]
         if fmt == "rgba16f":
             texels = texels.astype(np.float32)
         self.ctx.write(self.buffers[(stage.name, attribute)], np.ascontiguousarray(texels)

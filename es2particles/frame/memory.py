@@ -75,6 +75,7 @@ from dataclasses import dataclass
 from ..errors import ParameterError, check_range
 from ..gl.context import bytes_per_texel
 from ..io.memory import available
+from ..twins.pack import PACKED
 from .state import ENCODE_ROWS
 
 GiB = 2 ** 30
@@ -83,6 +84,7 @@ MiB = 2 ** 20
 # Numpy temporaries of packing one quantity's start (state_encode / fill_texels and the write of
 # its texels), bytes a particle; measured with tracemalloc at 2^20 particles.
 PACK_RGBA8 = 30  # per 16-bit component, in pairs (52-56 B for 1-2 components, 108-120 for 3-4)
+PACK_RGBA8_32 = 46  # per 32-bit component (42-46 B a component, encoding or filling)
 PACK_FLOAT = 17  # per component, and PACK_FLOAT_FIXED more (29-68 B encoding, 33-84 B filling)
 PACK_FLOAT_FIXED = 16
 IMAGE_READ = 16  # bytes a pixel: the picture read back (4), as RGB (3, twice), PNG rows (3, twice)
@@ -176,6 +178,8 @@ class _Tally:
 def pack_bytes(components, fmt):
     """Numpy temporaries (bytes a particle) of packing a start of ``components`` values into
     ``fmt``: the encoding, or the write of its texels where that is more."""
+    if fmt == "rgba8_32":
+        return PACK_RGBA8_32 * components
     if fmt == "rgba8":
         return PACK_RGBA8 * 2 * (-(-components // 2))
     return max(PACK_FLOAT * components, 2 * bytes_per_texel(fmt)) + PACK_FLOAT_FIXED
@@ -243,7 +247,7 @@ def estimate(plan, animation=None):
     for stage in plan.frame_stages:
         for ref in stage.attributes.values():  # state read back into a vertex buffer
             fmt = plan.resources[ref.resource].format
-            per = 4 if fmt == "rgba8" else 16
+            per = 4 if fmt in PACKED else 16
             held.add("vertex buffers", PARTICLES, stage.count * per)
             frame[PARTICLES] = frame.get(PARTICLES, 0) + texels * bytes_per_texel(fmt) \
                 + stage.count * (per + 16)

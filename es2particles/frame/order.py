@@ -223,7 +223,7 @@ def order_format(caps, position, state_format, fmt=None):
         if fmt != "rgba8" and not caps.renderable.get(fmt):
             raise CapabilityError(f"format {fmt!r} cannot be rendered to on {caps.renderer}")
         return fmt
-    return ("rgba32f" if position.format_in(state_format) != "rgba8"
+    return ("rgba32f" if position.format_in(state_format) in ("rgba16f", "rgba32f")
             and caps.renderable.get("rgba32f") else "rgba8")
 
 

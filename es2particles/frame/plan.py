@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import CapabilityError, GraphError, ParameterError, check_range
 from ..gl.bindings import generated_values, pass_interface, uniform_value
-from ..gl.context import Capabilities
+from ..gl.context import Capabilities, texture_format
 from .graph import scene_graph
 from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
@@ -384,7 +384,7 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
 
     for name, n in plan.buffers.items():
         q = plan.quantities[name]
-        if q.storage and not caps.renderable.get(q.storage):
+        if q.storage and not caps.renderable.get(texture_format(q.storage)):
             raise CapabilityError(f"quantity {name!r} is pinned to {q.storage}, which cannot be "
                                   f"rendered to on {caps.renderer}")
         swap = "write" if name in plan.versioned else "step" if n == 2 else None

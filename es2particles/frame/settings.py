@@ -220,6 +220,32 @@ def _keeps_state(scene):
     return bool(scene_graph(scene, None).quantities)
 
 
+def _inert_state_setting(scene, settings):
+    """(setting, why) of a state setting given that changes nothing for ``scene``'s state, the
+    formats its quantities take in the format given (``Quantity.format_in``); None if each acts.
+    A quantity declared 32-bit is kept so in rgba8 and rgba16f alike, and 32-bit packed or float
+    state is always rounded to the nearest value."""
+    from .graph import scene_graph
+
+    given, fmt = settings.given(), settings.get("format", "rgba8")
+    if fmt not in FORMATS:  # auto: known with a context
+        return None
+    quantities = scene_graph(scene, None).quantities.values()
+    if not quantities:
+        return None
+    stored = sorted({q.format_in(fmt) for q in quantities})
+    if "format" in given and fmt != "rgba8" and stored == sorted(
+            {q.format_in("rgba8") for q in quantities}):
+        return "format", (f"scene {scene.name!r} keeps its state in {', '.join(stored)} with "
+                          f"--format rgba8 too (its quantities ask for more bits than {fmt} "
+                          "holds, or are pinned): it would change nothing")
+    if "rounding" in given and settings.rounding != "nearest" and "rgba8" not in stored:
+        return "rounding", (f"scene {scene.name!r} keeps its state in {', '.join(stored)} "
+                            f"here, always rounded to the nearest value: {settings.rounding} "
+                            "rounding applies to 16-bit packed state (rgba8)")
+    return None
+
+
 def frames_independent(scene, settings):
     """Whether a frame of ``scene`` needs nothing drawn before it: a stateless (reseeded) scene
     without trails (a trail is the frames before)."""
@@ -247,6 +273,14 @@ def check_settings(settings, scene, rendering=None):
                              "keeps no state here (no particles, no grid): nothing to count, "
                              "store, round or seed")
     given = {name: getattr(settings, name) for name in settings.given()}
+    if "format" in given:
+        SETTINGS["format"].convert(given["format"], "format")
+    if "rounding" in given:
+        SETTINGS["rounding"].convert(given["rounding"], "rounding")
+    inert = _inert_state_setting(scene, settings) if stateful else None
+    if inert:
+        name, why = inert
+        raise ParameterError(f"{OPTIONS[name]} {given[name]}: {why}")
     for name, value in given.items():
         if name == "size":
             parse_size(value, MAX_SIZE)

@@ -6,7 +6,10 @@ grid of its own size: a fluid's velocity, a pressure), whose texture is the grid
 (i, j) at texel (i, j), row 0 at the bottom. In the default ``rgba8`` format each number is 16-bit fixed point over the quantity's
 declared world range [lo, hi] (see ``twins/pack.py``), two numbers to a texel, so a quantity of three
 or four components spans two textures (its *parts*); ``rgba16f``/``rgba32f`` store the values
-themselves, clamped into the range, up to four in one texture. Particle i lives at texel
+themselves, clamped into the range, up to four in one texture. A quantity declared ``bits=32``
+keeps float32's precision: in rgba8 and rgba16f simulations it is stored ``rgba8_32``, one value
+a texel as two 16-bit codes (the second the rest of the first), so one texture a component.
+Particle i lives at texel
 (i mod width, i div width); texels past the particle count are spare: they are computed like the
 others but never drawn or downloaded.
 """
@@ -20,7 +23,9 @@ from ..twins import pack as packing
 from ..gl.context import bytes_per_texel, numpy_dtype
 from ..errors import ParameterError, check_range
 
-FORMATS = ("rgba8", "rgba16f", "rgba32f")
+FORMATS = ("rgba8", "rgba16f", "rgba32f")  # a simulation's
+STORAGE = FORMATS + ("rgba8_32",)  # a quantity's: the simulation's, or 32-bit packed RGBA8
+BITS = (16, 32)
 AXES = "xyzw"
 
 
@@ -105,6 +110,7 @@ class Quantity:
     components: int = None
     storage: str = None  # a format this quantity keeps whatever the simulation's (None: that)
     domain: Grid = None  # the grid it lives on; None: the particles
+    bits: int = 16  # 32: at least float32's precision in every simulation (see format_in)
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -132,9 +138,12 @@ class Quantity:
         if self.domain is not None and not isinstance(self.domain, Grid):
             raise ParameterError(f"quantity {self.name!r}: domain must be a Grid (PassGraph.grid) "
                                  f"or None for the particles, got {self.domain!r}")
-        if self.storage is not None and self.storage not in FORMATS:
-            raise ParameterError(f"quantity {self.name!r}: storage must be one of {list(FORMATS)} "
+        if self.storage is not None and self.storage not in STORAGE:
+            raise ParameterError(f"quantity {self.name!r}: storage must be one of {list(STORAGE)} "
                                  f"or None, got {self.storage!r}")
+        if self.bits not in BITS:
+            raise ParameterError(f"quantity {self.name!r}: bits must be 16 or 32, got "
+                                 f"{self.bits!r}")
 
     @property
     def domain_name(self):
@@ -142,8 +151,13 @@ class Quantity:
         return "particles" if self.domain is None else self.domain.name
 
     def format_in(self, fmt):
-        """The format this quantity is stored in within a simulation of format ``fmt``."""
-        return self.storage or fmt
+        """The format this quantity is stored in within a simulation of format ``fmt``: its
+        ``storage`` if pinned; with ``bits=32``, ``rgba8_32`` where the simulation's format holds
+        fewer bits than float32 (rgba8's 16-bit codes, rgba16f's 11-bit significands: state that
+        accumulates, an attractor's orbit, would keep their error as a floor); else ``fmt``."""
+        if self.storage:
+            return self.storage
+        return "rgba8_32" if self.bits == 32 and fmt in ("rgba8", "rgba16f") else fmt
 
     @property
     def lo32(self):
@@ -169,9 +183,8 @@ class Quantity:
 
     def part_axes(self, fmt, part):
         """The component names (``xy``, ``z``, ...) that part ``part`` holds in ``fmt``."""
-        if self.format_in(fmt) != "rgba8":
-            return AXES[: self.components]
-        return AXES[2 * part: min(2 * part + 2, self.components)]
+        per = packing.PACKED.get(self.format_in(fmt), 4)
+        return AXES[per * part: min(per * part + per, self.components)]
 
     def bytes_per_particle(self, fmt):
         return self.parts(fmt) * bytes_per_texel(self.format_in(fmt))
@@ -299,8 +312,8 @@ class StateBuffer(Textures):
     uniform fills and downloads in world units."""
 
     def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
-        if fmt not in FORMATS:
-            raise ParameterError(f"format must be one of {list(FORMATS)}, got {fmt!r}")
+        if fmt not in STORAGE:
+            raise ParameterError(f"format must be one of {list(STORAGE)}, got {fmt!r}")
         if fmt == "rgba16f":
             reach = float(np.max(np.abs(np.concatenate([quantity.lo, quantity.hi]))))
             if reach > HALF_MAX:
@@ -313,7 +326,7 @@ class StateBuffer(Textures):
         # encoding and uploading a zero array.
         texels = zero_texels(quantity, fmt)
         for part, pair in enumerate(self.framebuffers):
-            colour = texels[part] / 255.0 if fmt == "rgba8" else texels[part]
+            colour = texels[part] / 255.0 if fmt in packing.PACKED else texels[part]
             for framebuffer in pair:
                 self.ctx.clear(framebuffer, colour)
 
@@ -333,9 +346,9 @@ class StateBuffer(Textures):
         of ``upload`` and ``fill_uniform``, or raw ones (how the stability suite injects NaN and
         Inf into float state). Spare texels get zeros."""
         texels = np.asarray(texels).reshape(self.layout.count, self.parts, 4)
-        if self.fmt == "rgba8" and (texels.dtype != np.uint8):
-            raise ParameterError(f"{self.quantity.name} is stored in rgba8: texels must be uint8 "
-                                 f"bytes, got {texels.dtype}")
+        if self.fmt in packing.PACKED and (texels.dtype != np.uint8):
+            raise ParameterError(f"{self.quantity.name} is stored in {self.fmt}: texels must be "
+                                 f"uint8 bytes, got {texels.dtype}")
         for texture, full in zip(self.fronts, part_textures(texels, self.layout, self.fmt)):
             self.ctx.write(texture, full.tobytes())
 

@@ -171,7 +171,8 @@ def _read_function(out, q, c, fmt, texels, salt):
     """``read_q(uv)`` from ``texels``, a GLSL vec4 expression per part: RGBA8 byte pairs
     decoded into the range (with the read's jitter, lib/state.glsl's state_jitter, under
     rounding "jitter"; ``salt`` is :data:`READ_SALTS`' of the reader, None for a quantity
-    pinned to its storage, an exact clock, which reads its code), floats as they are."""
+    pinned to its storage, an exact clock, which reads its code), ``rgba8_32`` a value's four
+    bytes (read exactly: its step is below float32's), floats as they are."""
     jitter = []  # the offsets of both parts from one hash
     if fmt == "rgba8":
         if salt is not None:
@@ -187,6 +188,10 @@ def _read_function(out, q, c, fmt, texels, salt):
             body = decoded[0] + (".x" if c == 1 else "")
         else:
             body = f"{GLSL_TYPES[c]}({decoded[0]}, {decoded[1]}{'.x' if c == 3 else ''})"
+    elif fmt == "rgba8_32":  # one value a texel, read exactly (lib/state.glsl)
+        decoded = [f"state_decode32({t}, u_{q}_lo.{a}, u_{q}_span.{a})"
+                   for t, a in zip(texels, "xyzw")]
+        body = decoded[0] if c == 1 else f"{GLSL_TYPES[c]}({', '.join(decoded)})"
     else:
         body = texels[0] + ("" if c == 4 else "." + "xyzw"[:c])
     out.lines += [f"{GLSL_TYPES[c]} read_{q}(vec2 uv)", "{", *jitter, f"    return {body};", "}"]
@@ -215,6 +220,9 @@ def _writer(out, quantity, fmt, part):
         axes = ("xy", "zw")[part]
         encode = (f"state_encode(v.{axes}, u_{q}_lo.{axes}, u_{q}_span.{axes}, "
                   f"state_noise().{axes})")
+    elif fmt == "rgba8_32":
+        a = "xyzw"[part]
+        encode = f"state_encode32(v.{a}, u_{q}_lo.{a}, u_{q}_span.{a})"
     else:
         encode = f"state_clamp(v, u_{q}_lo, u_{q}_span)"
     # GLSL ES 1.00 declares gl_FragColor mediump, and a driver may honour that where it is written

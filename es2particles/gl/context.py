@@ -20,15 +20,22 @@ FORMAT_DTYPES = {"rgba8": "f1", "rgba16f": "f2", "rgba32f": "f4"}
 # target only (one channel is all it needs; not ES 2.0, so it is probed like the float formats).
 TEXTURE_FORMATS = {**{name: (4, dtype) for name, dtype in FORMAT_DTYPES.items()}, "r32f": (1, "f4")}
 _NUMPY = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}
+# Storage formats kept in another's textures: 32-bit packed state is RGBA8 bytes, as 16-bit is.
+STORED_IN = {"rgba8_32": "rgba8"}
+
+
+def texture_format(fmt):
+    """The texture format that holds storage format ``fmt`` (itself, or rgba8 for rgba8_32)."""
+    return STORED_IN.get(fmt, fmt)
 
 
 def numpy_dtype(fmt):
     """The numpy dtype of one channel of a texture of ``fmt``, as read back or written."""
-    return _NUMPY[TEXTURE_FORMATS[fmt][1]]
+    return _NUMPY[TEXTURE_FORMATS[texture_format(fmt)][1]]
 
 
 def bytes_per_texel(fmt):
-    components, dtype = TEXTURE_FORMATS[fmt]
+    components, dtype = TEXTURE_FORMATS[texture_format(fmt)]
     return components * np.dtype(_NUMPY[dtype]).itemsize
 
 
@@ -144,13 +151,15 @@ class FormatFlags(dict):
         self._probe = probe
 
     def __missing__(self, fmt):
+        if texture_format(fmt) != fmt:
+            return self[texture_format(fmt)]
         if fmt not in TEXTURE_FORMATS:
             raise KeyError(fmt)
         self._probe(fmt)
         return dict.__getitem__(self, fmt)
 
     def get(self, fmt, default=None):
-        return self[fmt] if fmt in TEXTURE_FORMATS else default
+        return self[fmt] if texture_format(fmt) in TEXTURE_FORMATS else default
 
 
 def _program_key(vertex, fragment, defines, vertex_prelude, fragment_prelude, fragment_epilogue):
@@ -282,7 +291,7 @@ class Context:
 
         Packed state must be sampled NEAREST: linear filtering would mix high and low bytes.
         """
-        components, dtype = TEXTURE_FORMATS[fmt]
+        components, dtype = TEXTURE_FORMATS[texture_format(fmt)]
         return self.own(self.device.texture(tuple(size), components, dtype, data,
                                             linear=not filter_nearest))
 
@@ -389,6 +398,7 @@ class Context:
 
     def require_format(self, fmt, blend=False):
         """Raise :class:`CapabilityError` unless ``fmt`` is renderable (and blendable)."""
+        fmt = texture_format(fmt)
         if fmt not in FORMAT_DTYPES:
             raise CapabilityError(f"format must be one of {sorted(FORMAT_DTYPES)}, got {fmt!r}")
         if not self.caps.renderable.get(fmt) or (blend and not self.caps.blendable.get(fmt)):

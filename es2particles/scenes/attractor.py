@@ -74,15 +74,16 @@ class Attractor(Scene):
 
     shader = ""  # the member's GLSL map
     Params = AttractorParams
-    # Stateful runs iterate a chaotic map on the 16-bit grid, where nearest rounding falls into
-    # short cycles (measured for de Jong: 47% distinct positions after 2000 steps of 2^18
-    # particles, density distance 0.076 against a 0.053 noise floor). Dithered rounding keeps the
-    # orbit alive, but its map still runs only on the grid's points, and an accumulated density
-    # stops converging near 3% (benchmarks/NOTES.md). Jittered reads run the map on points
-    # spread through each code: the density converges as float32's does. Reseeded frames write
-    # once: nearest is exact.
-    defaults = Defaults(steps=20, rounding="jitter")
+    # Stateful runs iterate a chaotic map, and what the state drops each step stays in the
+    # accumulated density as a floor. On the 16-bit grid nearest rounding fell into short cycles
+    # (de Jong: 47% distinct positions after 2000 steps of 2^18 particles); dithered writes left
+    # a floor near 3%, jittered reads one of ~0.7% (1.25x numpy's noise at K = 1024;
+    # benchmarks/NOTES.md). So the position of a stateful run is 32-bit (``bits=32``: float32's
+    # precision over the range, in rgba8 and rgba16f alike), rounded to nearest; reseeded frames
+    # write once, and 16 bits draw them exactly.
+    defaults = Defaults(steps=20, rounding="nearest")
     reseeded_defaults = Defaults(steps=1, rounding="nearest")
+    state_bits = 32  # a stateful run's position (16: the packed format's own, as tests use)
 
     @staticmethod
     def map(p, k):
@@ -126,7 +127,7 @@ class Attractor(Scene):
     def graph(self):
         x0, y0, x1, y1 = self.range
         g = PassGraph()
-        g.quantity("position", (x0, y0), (x1, y1))
+        g.quantity("position", (x0, y0), (x1, y1), bits=16 if self.reseed else self.state_bits)
         defines = {"ITERATIONS": self.iterations}
         if self.reseed:
             defines["RESEED"] = None

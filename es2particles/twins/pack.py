@@ -9,6 +9,12 @@ k = 0..65024, in bytes H = k div 255, L = k mod 255 (so L never rounds up to 255
 it reads back as (255 H + L) / 65024. 65024 steps, not 255 * 255 = 65025: an even count puts a
 code at the middle of every range, so zero in a symmetric range (a velocity at rest) is stored
 exactly. Results of edge values: x >= 1 and +Inf give 1.0 exactly; x <= 0, -Inf and NaN give 0.0.
+
+32 bits a value (storage ``rgba8_32``, one value a texel): two such codes, the first k1 =
+floor(65024 x), the second the nearest code of the rest, 65024 x - k1 (exact in float32). It reads
+back as (k1 + k2 / 65024) / 65024: steps of 1 / 65024^2 (2.4e-10 of the range), finer than the
+float32 a shader holds the value in, so a value computes in float32 and is stored to its float32
+precision (within an ulp or two of the range's arithmetic, not 1/65024 of the range).
 """
 
 import numpy as np
@@ -87,10 +93,30 @@ def unpack2x16(texel):
 
 # --- twins of lib/state.glsl ------------------------------------------------------------------
 
+def pack32(x):
+    """Bytes (..., 4) = (high, low of the first code, high, low of the second) that a GPU stores
+    for ``x`` in [0, 1] (``pack32`` in GLSL): 32-bit fixed point, nearest rounding."""
+    s = clamp_unit(x) * F32(CODES_PER_UNIT)
+    k1 = np.floor(s)
+    return np.concatenate([pack16(k1 * F32(1 / CODES_PER_UNIT)), pack16(s - k1)], axis=-1)
+
+
+def unpack32(texel):
+    """Decode bytes (..., 4) of ``pack32`` to float32 in [0, 1], as ``unpack32`` in GLSL."""
+    b = np.asarray(texel).astype(F32)
+    k1 = b[..., 0] * F32(255) + b[..., 1]
+    k2 = b[..., 2] * F32(255) + b[..., 3]
+    return ((k1 + k2 * F32(1 / CODES_PER_UNIT)) * F32(1 / CODES_PER_UNIT)).astype(F32)
+
+
+# Storage formats whose texels are RGBA8 bytes of fixed-point codes: values a texel.
+PACKED = {"rgba8": 2, "rgba8_32": 1}
+
+
 def parts(components, fmt):
     """Textures one quantity of ``components`` values spans: RGBA8 holds two 16-bit values per
-    texel, a float format up to four."""
-    return -(-components // 2) if fmt == "rgba8" else 1
+    texel (``rgba8``) or one 32-bit value (``rgba8_32``), a float format up to four."""
+    return -(-components // PACKED[fmt]) if fmt in PACKED else 1
 
 
 def state_unit(value, lo, span):
@@ -111,7 +137,8 @@ def state_clamp(value, lo, span):
 
 def state_encode(value, lo, span, fmt="rgba8"):
     """Texel contents (..., parts, 4) for world values (..., c) under nearest rounding: RGBA8
-    bytes, two values per texel (an odd last value pads with code 0), or float RGBA holding the
+    bytes, two values per texel (an odd last value pads with code 0) in ``rgba8``, one in
+    ``rgba8_32``, or float RGBA holding the
     clamped values themselves (padded with 0)."""
     value = np.asarray(value, dtype=F32)
     c = value.shape[-1]
@@ -120,6 +147,8 @@ def state_encode(value, lo, span, fmt="rgba8"):
         if c % 2:
             unit = np.concatenate([unit, np.zeros(unit.shape[:-1] + (1,), F32)], axis=-1)
         return pack16(unit).reshape(value.shape[:-1] + (parts(c, fmt), 4))
+    if fmt == "rgba8_32":
+        return pack32(state_unit(value, lo, span))
     out = np.zeros(value.shape[:-1] + (1, 4), dtype=F32)
     out[..., 0, :c] = state_clamp(value, lo, span)
     return out
@@ -131,6 +160,9 @@ def state_decode(texels, lo, span, fmt="rgba8"):
     texels = np.asarray(texels)
     if fmt == "rgba8":
         unit = unpack16(texels.reshape(texels.shape[:-2] + (-1, 2)))[..., :c]
+        return (np.asarray(lo, F32) + unit * np.asarray(span, F32)).astype(F32)
+    if fmt == "rgba8_32":
+        unit = unpack32(texels)[..., :c]
         return (np.asarray(lo, F32) + unit * np.asarray(span, F32)).astype(F32)
     return np.asarray(texels, dtype=F32)[..., 0, :c]
 

@@ -75,3 +75,21 @@ vec2 unpack2x16(vec4 texel)
 {
     return vec2(unpack16(texel.xy), unpack16(texel.zw));
 }
+
+// 32-bit fixed point in the four channels of one texel (storage "rgba8_32"): two codes, the
+// first k1 = floor(65024x), the second the nearest code of the rest 65024x - k1 (exact in
+// float32). It reads back as (k1 + k2/65024)/65024: steps of 1/65024^2, finer than the float32
+// the value is computed in, so state keeps a shader's float32 precision over its range.
+vec4 pack32(float x)
+{
+    float scaled = clamp_unit(x) * 65024.0;
+    float k1 = floor(scaled);
+    return vec4(pack16(k1 * (1.0 / 65024.0)), pack16(scaled - k1));
+}
+
+float unpack32(vec4 texel)
+{
+    vec4 bytes = floor(texel * 255.0 + 0.5);
+    return (bytes.x * 255.0 + bytes.y + (bytes.z * 255.0 + bytes.w) * (1.0 / 65024.0))
+           * (1.0 / 65024.0);
+}

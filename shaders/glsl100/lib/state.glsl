@@ -6,7 +6,8 @@
 // numpy twins: es2particles/packing.py.
 //
 // Each quantity's format decides which functions its accessors use: RGBA8 is 16-bit fixed point
-// over [lo, hi], two values packed in one texel (state_decode, state_encode); RGBA16F/RGBA32F
+// over [lo, hi], two values packed in one texel (state_decode, state_encode), or 32-bit, one
+// value a texel (rgba8_32: state_decode32, state_encode32); RGBA16F/RGBA32F
 // hold the value itself, clamped into [lo, hi], up to four per texel (state_clamp).
 // STATE_DITHER makes the packed format round stochastically, with noise from a hash of the texel
 // written (gl_FragCoord) and the step number: deterministic, different per particle and step.
@@ -87,6 +88,19 @@ vec4 state_encode(vec2 value, vec2 lo, vec2 span, vec2 noise)
 #else
     return pack2x16(x);
 #endif
+}
+
+// 32-bit packed state ("rgba8_32"): one value a texel, always to the nearest code (its step,
+// 1/65024^2 of the range, is below float32's: jittered reads and dithered writes would be lost in
+// the arithmetic around them).
+float state_decode32(vec4 texel, float lo, float span)
+{
+    return lo + unpack32(texel) * span;
+}
+
+vec4 state_encode32(float value, float lo, float span)
+{
+    return pack32(clamp_unit((value - lo) / span));
 }
 
 // Float formats: the value itself, clamped into [lo, lo + span]. Not clamp(): clamp(NaN, ...) is

@@ -25,12 +25,17 @@ Shapes are analytic (sphere, box, capsule, torus, their unions; exact distance a
 voxel centre) or triangle meshes (OBJ, STL, PLY through trimesh, the ``mesh`` extra): a mesh is
 made a solid voxel mask (every voxel its surface touches, and the inside of a closed mesh; an
 open shell grown by a voxel across its faces), then an exact Euclidean distance transform (scipy)
-gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces. A
+gives distance and normal, as the 2D masks, so a thin shell is solid voxels joined by faces.
+Within NEAR_VOXELS of a closed mesh's surface the distance and normal come from the triangles
+instead: the closest point on them, signed by its feature's angle-weighted pseudo-normal, so a
+mesh of a sphere is the sphere to its facets, not to its voxels (the mask's normals were 13.7
+degrees off on average near an icosphere's top, its surface 0.57 voxel out). A
 mesh file is checked before it is used (:func:`load_mesh`), and the voxelising's work and memory
 are estimated from its triangles before it starts (:func:`check_voxelising`).
 """
 
 import io
+import itertools
 import re
 from dataclasses import dataclass
 from functools import cached_property
@@ -223,6 +228,23 @@ class TriangleMesh:
             mask = ndimage.binary_dilation(mask, ndimage.generate_binary_structure(3, 1))
         return ndimage.binary_fill_holes(mask)
 
+    def field(self, lo, voxel, cells):
+        """Signed distance and unit normal (float64, (nz, ny, nx) and (nz, ny, nx, 3)) at the
+        voxel centres of the box from ``lo``: from the triangles themselves within NEAR_VOXELS
+        of a closed mesh's surface (:func:`triangle_distance`), from the solid mask's distance
+        transform (:func:`mask_field`) beyond, and everywhere for an open shell (it has no
+        inside to sign a distance by)."""
+        dist, normal = mask_field(self.solid(lo, voxel, cells), voxel)
+        if not self.closed:
+            return dist, normal
+        near = np.abs(dist) <= NEAR_VOXELS * voxel
+        z, y, x = np.nonzero(near)
+        points = lo + (np.stack([x, y, z], -1) + 0.5) * voxel
+        # The mask's distance errs by under a voxel: the band's true distances are within reach.
+        dist[near], normal[near] = triangle_distance(points, self.vertices, self.faces,
+                                                     (NEAR_VOXELS + 1) * voxel)
+        return dist, normal
+
     def __repr__(self):
         return f"TriangleMesh({self.name!r}, {len(self.faces)} triangles)"
 
@@ -405,6 +427,130 @@ def mask_field(solid, voxel):
     return dist * voxel, normal
 
 
+# --- distance to the triangles, near a mesh's surface ---------------------------------------------
+
+NEAR_VOXELS = 3  # a closed mesh's distance and normal come from its triangles within this band
+PAIRS_PER_RUN = 2 ** 20  # (point, triangle) pairs measured at a time: ~0.3 GB of float64 temporaries
+
+
+def closest_on_triangles(p, a, b, c):
+    """Closest points on triangles (a, b, c) to points p, all (N, 3) float64, and their
+    barycentric weights (N, 3) of a, b and c (Ericson, Real-Time Collision Detection, 5.1.5)."""
+    ab, ac, ap = b - a, c - a, p - a
+    d1, d2 = np.einsum("ij,ij->i", ab, ap), np.einsum("ij,ij->i", ac, ap)
+    bp = p - b
+    d3, d4 = np.einsum("ij,ij->i", ab, bp), np.einsum("ij,ij->i", ac, bp)
+    cp = p - c
+    d5, d6 = np.einsum("ij,ij->i", ab, cp), np.einsum("ij,ij->i", ac, cp)
+    va, vb, vc = d3 * d6 - d5 * d4, d5 * d2 - d1 * d6, d1 * d4 - d3 * d2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        denom = va + vb + vc
+        v, w = vb / denom, vc / denom  # the face
+        weights = np.stack([1 - v - w, v, w], -1)
+        t_ab = d1 / (d1 - d3)
+        t_ac = d2 / (d2 - d6)
+        t_bc = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+    regions = [  # (condition, weights), the first that holds wins: vertices, then edges
+        (d1 <= 0) & (d2 <= 0), [1, 0, 0],
+        (d3 >= 0) & (d4 <= d3), [0, 1, 0],
+        (d6 >= 0) & (d5 <= d6), [0, 0, 1],
+        (vc <= 0) & (d1 >= 0) & (d3 <= 0), np.stack([1 - t_ab, t_ab, 0 * t_ab], -1),
+        (vb <= 0) & (d2 >= 0) & (d6 <= 0), np.stack([1 - t_ac, 0 * t_ac, t_ac], -1),
+        (va <= 0) & ((d4 - d3) >= 0) & ((d5 - d6) >= 0), np.stack([0 * t_bc, 1 - t_bc, t_bc], -1),
+    ]
+    done = np.zeros(len(p), bool)
+    for condition, w_region in zip(regions[::2], regions[1::2]):
+        take = condition & ~done
+        weights[take] = np.broadcast_to(np.asarray(w_region, float), weights.shape)[take]
+        done |= take
+    closest = weights[:, :1] * a + weights[:, 1:2] * b + weights[:, 2:] * c
+    return closest, weights
+
+
+def pseudo_normals(vertices, faces):
+    """Angle-weighted pseudo-normals (Baerentzen and Aanaes 2005) of a closed mesh's faces (F, 3),
+    edges (as a map from each face's edge k, between corners k and k+1, to the sum of its two
+    faces' normals: (F, 3, 3)) and vertices (V, 3): the sign of (p - q) . n at the closest point
+    q, with n the pseudo-normal of the feature q lies on, says whether p is inside, robustly,
+    whatever the mesh's angles."""
+    corners = vertices[faces]
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-300)
+    at_vertex = np.zeros_like(vertices)
+    for k in range(3):
+        u = corners[:, (k + 1) % 3] - corners[:, k]
+        v = corners[:, (k + 2) % 3] - corners[:, k]
+        cos = np.einsum("ij,ij->i", u, v) / np.maximum(
+            np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+        np.add.at(at_vertex, faces[:, k], np.arccos(np.clip(cos, -1, 1))[:, None] * normal)
+    edges = np.sort(np.stack([faces, np.roll(faces, -1, axis=1)], -1), axis=-1).reshape(-1, 2)
+    _, edge_of = np.unique(edges, axis=0, return_inverse=True)
+    at_edge = np.zeros((edge_of.max() + 1, 3))
+    np.add.at(at_edge, edge_of.ravel(), np.repeat(normal, 3, axis=0))
+    return normal, at_edge[edge_of.ravel()].reshape(-1, 3, 3), at_vertex
+
+
+def triangle_distance(points, vertices, faces, reach):
+    """Signed distance (negative inside) and outward unit normal (float64) of a closed mesh at
+    ``points`` (N, 3), for points within ``reach`` of it (others are measured against the
+    triangles that a ball of that reach around the nearest centroid's triangle finds, so may
+    come out too far). The normal is the direction from the closest point on the triangles to
+    the point, signed by the closest feature's angle-weighted pseudo-normal (on the surface
+    itself, that pseudo-normal)."""
+    from scipy.spatial import cKDTree
+
+    corners = vertices[faces]
+    centroid = corners.mean(axis=1)
+    radius = np.linalg.norm(corners - centroid[:, None], axis=-1).max(axis=1)
+    tree = cKDTree(centroid)
+    # The nearest centroid's triangle bounds the distance (d0); every triangle nearer than that
+    # has its centroid within d0 + its radius (and no band point is beyond ``reach``).
+    _, nearest = tree.query(points)
+    c0, _ = closest_on_triangles(points, *np.moveaxis(corners[nearest], 1, 0))
+    d0 = np.minimum(np.linalg.norm(points - c0, axis=1), reach)
+    candidates = tree.query_ball_point(points, d0 + radius.max() + 1e-9)
+    counts = np.fromiter(map(len, candidates), int, len(points))
+    pair_point = np.repeat(np.arange(len(points)), counts)
+    pair_face = np.fromiter(itertools.chain.from_iterable(candidates), int, counts.sum())
+    face_n, edge_n, vertex_n = pseudo_normals(vertices, faces)
+    best = np.full(len(points), np.inf)
+    q = np.zeros_like(points)
+    n = np.tile([0.0, 1.0, 0.0], (len(points), 1))
+    for start in range(0, len(pair_point), PAIRS_PER_RUN):
+        i = pair_point[start:start + PAIRS_PER_RUN]
+        f = pair_face[start:start + PAIRS_PER_RUN]
+        c, w = closest_on_triangles(points[i], *np.moveaxis(corners[f], 1, 0))
+        d = np.linalg.norm(points[i] - c, axis=1)
+        order = np.lexsort((d, i))  # each point's nearest pair first
+        first = order[np.r_[True, i[order][1:] != i[order][:-1]]]
+        better = d[first] < best[i[first]]
+        k, j = i[first][better], first[better]
+        best[k], q[k] = d[j], c[j]
+        n[k] = _feature_normal(w[j], f[j], faces, face_n, edge_n, vertex_n)
+    away = points - q
+    sign = np.where(np.einsum("ij,ij->i", away, n) < 0, -1.0, 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        direction = away / best[:, None]
+    normal = np.where(best[:, None] > 1e-12, sign[:, None] * direction, n)
+    return sign * best, _unit(normal)
+
+
+def _feature_normal(weights, face, faces, face_n, edge_n, vertex_n):
+    """The pseudo-normal of the feature (vertex, edge or face) a closest point of barycentric
+    ``weights`` on ``face`` lies on."""
+    zero = weights <= 1e-12
+    out = face_n[face].copy()
+    on_edge = zero.sum(axis=1) == 1
+    if on_edge.any():  # the edge opposite the zero weight: corner k+1 to k+2 is edge k+1
+        k = (np.argmax(zero[on_edge], axis=1) + 1) % 3
+        out[on_edge] = edge_n[face[on_edge], k]
+    on_vertex = zero.sum(axis=1) == 2
+    if on_vertex.any():
+        k = np.argmax(~zero[on_vertex], axis=1)
+        out[on_vertex] = vertex_n[faces[face[on_vertex], k]]
+    return out
+
+
 # --- octahedral normals --------------------------------------------------------------------------
 
 def octahedral_encode(n):
@@ -579,8 +725,7 @@ class VoxelField:
         parts = [(np.full(centres.shape[:-1], np.inf), np.tile([0.0, 1.0, 0.0], centres.shape[:-1] + (1,)))]
         for s in shapes:
             if isinstance(s, TriangleMesh):
-                parts.append(mask_field(s.solid(self.lo + self.pivot, self.voxel,
-                                                np.asarray(self.cells)), self.voxel))
+                parts.append(s.field(self.lo + self.pivot, self.voxel, np.asarray(self.cells)))
             else:
                 parts.append(s.sdf(world))
         self.distance, self.normal = union(parts)

@@ -138,3 +138,16 @@ def test_state_settings_that_act_are_taken():
     plan = plan_frame(Collision(), FrameSettings(rounding="dither", particles=64), None)
     assert plan.resources["position"].format == "rgba8"
     assert any("STATE_DITHER" in s.defines for s in plan.stages)
+
+
+def test_the_plan_says_which_quantities_are_32_bit():
+    from es2particles.frame.plan import plan_frame
+    from es2particles.frame.settings import FrameSettings
+    from es2particles.scenes import DeJong
+
+    text = "\n".join(plan_frame(DeJong(), FrameSettings(particles=64), None).describe())
+    assert "position (2 components, rgba8_32: 32 bits a value): 2 parts x 2" in text
+    assert "writes position part 2/2 (y)" in text
+    text = "\n".join(plan_frame(DeJong(), FrameSettings(particles=64, format="rgba32f"),
+                                None).describe())
+    assert "position (2 components): 2 (" in text

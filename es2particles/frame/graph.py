@@ -236,7 +236,9 @@ class Plan:
                       else texel_count)
             if texels is not None:
                 size = f", {format_bytes(n * parts * texels * bytes_per_texel(q.format_in(fmt)))}"
-            pinned = f", always {q.storage}" if q.storage else ""
+            pinned = (f", always {q.storage}" if q.storage
+                      else f", {q.format_in(fmt)}: 32 bits a value" if q.format_in(fmt) != fmt
+                      else "")
             where = f", on grid {q.domain.name}" if q.domain is not None else ""
             lines.append(f"  {name} ({q.components} components{pinned}{where}): {count} "
                          f"({why}{size})")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import run_fullscreen, shader
-from es2particles import PassGraph, Simulation
+from es2particles import ParameterError, PassGraph, Simulation
 from es2particles.frame.state import Quantity
 from es2particles.twins import pack as packing
 
@@ -65,7 +65,7 @@ def test_a_32_bit_quantity_is_one_texel_a_value_and_float32_exact_in_every_float
     assert q.parts("rgba8") == 2 and q.part_axes("rgba8", 1) == "y"
     assert q.bytes_per_particle("rgba8") == 8 and q.bytes_per_particle("rgba16f") == 8
     assert Quantity("c", 0, 1, components=3, bits=32).parts("rgba8") == 3
-    with pytest.raises(Exception, match="bits must be 16 or 32"):
+    with pytest.raises(ParameterError, match="bits must be 16 or 32"):
         Quantity("p", 0, 1, bits=24)
 
 

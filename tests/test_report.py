@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 
 from es2particles.report import measure
-from es2particles.cli import main
 
 
 def test_collision_integrator_is_first_order_on_an_unquantised_smooth_case(gl):
@@ -29,11 +28,19 @@ def test_projectile_reference_matches_a_fine_numpy_integration():
 
 @pytest.mark.gl
 @pytest.mark.slow
-def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path, capsys, monkeypatch):
-    # In an empty folder, with the default --out (out/report): the folders are made.
-    monkeypatch.chdir(tmp_path)
+def test_report_quick_writes_tables_charts_and_a_passing_suite(tmp_path):
+    # In an empty folder, with the default --out (out/report): the folders are made. In a process
+    # of its own, as a user runs it: the report opens a GL context of its own, and once, late in
+    # a CI run of the whole suite in one process beside the suite's context, llvmpipe aborted
+    # the process inside a draw of its stability cases (not reproduced alone or after the tests
+    # before it); a process of its own keeps such an abort to this test.
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-m", "es2particles", "report", "--quick"],
+                         cwd=tmp_path, capture_output=True, text=True, timeout=900)
+    assert run.returncode == 0, run.stderr[-2000:]
     out = tmp_path / "out" / "report"
-    assert main(["report", "--quick"]) == 0
     text = (out / "REPORT.md").read_text()
     for heading in ("## Main finding", "## de Jong: error against run time",
                     "## Collision: error against run time", "## Collision: error against time step",

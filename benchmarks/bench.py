@@ -967,11 +967,9 @@ def ceiling_draws(ctx, count, repeats):
 
 def dejong_16_bit():
     """De Jong with its position in 16-bit codes, as it was before its state took 32 bits."""
-    from es2particles.scenes.dejong import DeJong
+    from es2particles.report.measure import DeJongInFormat
 
-    class DeJong16(DeJong):
-        state_bits = 16
-    return DeJong16()
+    return DeJongInFormat()
 
 
 def sample_section(ctx, emit, repeats):

@@ -213,24 +213,14 @@ def parse_trails(text):
 STATE_SETTINGS = ("particles", "format", "rounding", "seed")
 
 
-def _keeps_state(scene):
-    """Whether ``scene``'s pass graph declares any quantity (for the stated capabilities)."""
-    from .graph import scene_graph
-
-    return bool(scene_graph(scene, None).quantities)
-
-
-def _inert_state_setting(scene, settings):
+def _inert_state_setting(scene, settings, quantities):
     """(setting, why) of a state setting given that changes nothing for ``scene``'s state, the
-    formats its quantities take in the format given (``Quantity.format_in``); None if each acts.
-    A quantity declared 32-bit is kept so in rgba8 and rgba16f alike, and 32-bit packed or float
-    state is always rounded to the nearest value."""
-    from .graph import scene_graph
-
+    formats its ``quantities`` (its pass graph's, with no context) take in the format given
+    (``Quantity.format_in``); None if each acts. A quantity declared 32-bit is kept so in rgba8
+    and rgba16f alike, and 32-bit packed or float state is always rounded to the nearest value."""
     given, fmt = settings.given(), settings.get("format", "rgba8")
     if fmt not in FORMATS:  # auto: known with a context
         return None
-    quantities = scene_graph(scene, None).quantities.values()
     if not quantities:
         return None
     stored = sorted({q.format_in(fmt) for q in quantities})
@@ -268,7 +258,12 @@ def check_settings(settings, scene, rendering=None):
                              f"{'this setting' if len(unused) == 1 else 'these settings'} "
                              f"({rendering.kind})")
     stateful = [n for n in STATE_SETTINGS if n in settings.given()]
-    if stateful and not rendering.reads and not _keeps_state(scene):
+    quantities = []
+    if stateful:
+        from .graph import scene_graph
+
+        quantities = list(scene_graph(scene, None).quantities.values())
+    if stateful and not rendering.reads and not quantities:
         raise ParameterError(f"{OPTIONS.get(stateful[0], stateful[0])}: scene {scene.name!r} "
                              "keeps no state here (no particles, no grid): nothing to count, "
                              "store, round or seed")
@@ -277,7 +272,7 @@ def check_settings(settings, scene, rendering=None):
         SETTINGS["format"].convert(given["format"], "format")
     if "rounding" in given:
         SETTINGS["rounding"].convert(given["rounding"], "rounding")
-    inert = _inert_state_setting(scene, settings) if stateful else None
+    inert = _inert_state_setting(scene, settings, quantities) if stateful else None
     if inert:
         name, why = inert
         raise ParameterError(f"{OPTIONS[name]} {given[name]}: {why}")

@@ -30,6 +30,7 @@ particles of the cells around a point (``lib/neighbours.glsl``). It is ordered a
 pass is: built after what it reads, before what reads it, and left out when nothing does.
 """
 
+import math
 from dataclasses import dataclass, field, replace
 from typing import Mapping, Tuple
 
@@ -172,9 +173,7 @@ class Plan:
         texel_count = layout.width * layout.height if layout is not None else None
         lines = [f"outputs: {', '.join(self.outputs)}"]
         for grid in self.grids.values():
-            (x0, y0), (x1, y1) = grid.box
-            lines.append(f"grid {grid.name}: {grid.shape[0]}x{grid.shape[1]} cells over "
-                         f"({x0:g}, {y0:g})-({x1:g}, {y1:g}), one texel a cell")
+            lines.append(f"grid {grid.name}: {grid.describe()}, one texel a cell")
         lines.append("passes, in order:")
         versions = self.versions()
 
@@ -232,8 +231,7 @@ class Plan:
             parts = q.parts(fmt)
             count = f"{n}" if parts == 1 else f"{parts} parts x {n}"
             size = ""
-            texels = (q.domain.shape[0] * q.domain.shape[1] if q.domain is not None
-                      else texel_count)
+            texels = (math.prod(q.domain.size) if q.domain is not None else texel_count)
             if texels is not None:
                 size = f", {format_bytes(n * parts * texels * bytes_per_texel(q.format_in(fmt)))}"
             pinned = (f", always {q.storage}" if q.storage
@@ -275,7 +273,8 @@ class PassGraph:
 
     def grid(self, name, shape, box=None):
         """Declare a grid domain of ``shape`` (W, H) cells over the world rectangle ``box``
-        ((x0, y0), (x1, y1); default the cells themselves); returns its
+        ((x0, y0), (x1, y1); default the cells themselves), or (W, H, D) cells over the box
+        ((x0, y0, z0), (x1, y1, z1)), stored as an atlas of its slices; returns its
         :class:`~es2particles.frame.state.Grid`, to give ``quantity(..., domain=)``."""
         if name in self.grids or name == "particles":
             raise GraphError(f"grid {name!r} is declared twice" if name in self.grids else

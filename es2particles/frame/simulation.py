@@ -109,7 +109,8 @@ class Simulation:
 
     def upload(self, name, values):
         """Set quantity ``name`` to world values of shape (count, components); a grid
-        quantity's as (H, W, components), row 0 at the bottom (or flat, (W * H, components))."""
+        quantity's as (H, W, components), row 0 at the bottom (or flat, (W * H, components));
+        a 3D grid's as (D, H, W, components) (or flat, k then j then i)."""
         self._buffer(name).upload(values)
 
     def fill_uniform(self, name, lo, hi, rng):
@@ -122,11 +123,12 @@ class Simulation:
 
     def download(self, name):
         """World values (count, components), float64, of quantity ``name`` after the last step;
-        a grid quantity's as (H, W, components), row 0 at the bottom, values at cell centres."""
+        a grid quantity's as (H, W, components), row 0 at the bottom, values at cell centres (a
+        3D grid's (D, H, W, components))."""
         buffer = self._buffer(name)
         values = buffer.download()
         grid = buffer.quantity.domain
-        return values if grid is None else values.reshape(grid.shape[1], grid.shape[0], -1)
+        return values if grid is None else grid.arranged(values)
 
     def set_uniform(self, name, value):
         """Set uniform ``name`` on every planned pass that declares it. The name must be declared

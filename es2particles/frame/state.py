@@ -31,11 +31,16 @@ AXES = "xyzw"
 
 @dataclass(frozen=True)
 class Grid:
-    """A domain of W x H cells: quantities declared on it have one texel per cell, in a texture
-    of exactly W x H texels (cell (i, j) at texel (i, j)). ``box``: the world rectangle
-    ((x0, y0), (x1, y1)) the grid covers, cell (i, j) centred at x0 + (i + 0.5) (x1 - x0) / W;
-    by default the cells themselves, (0, 0) to (W, H). Its shaders see ``u_<name>_size`` (W, H)
-    and ``u_<name>_box`` (x0, y0, x1, y1)."""
+    """A domain of W x H cells, or W x H x D: quantities declared on it have one texel per cell.
+    A 2D grid's texture is exactly W x H texels (cell (i, j) at texel (i, j)); a 3D grid's is a
+    2D atlas of its D slices of constant k (ES 2.0 has no 3D textures), :attr:`tiles` (columns,
+    rows) of W x H tiles, slice k at column k mod columns, row k div columns (the last row's
+    spare tiles are computed like the others, never read or saved). ``box``: the world box
+    ((x0, y0), (x1, y1)) (3D: ((x0, y0, z0), (x1, y1, z1))) the grid covers, cell (i, j)
+    centred at x0 + (i + 0.5) (x1 - x0) / W; by default the cells themselves, 0 to the shape.
+    Its shaders see ``u_<name>_size`` (W, H) and ``u_<name>_box`` (x0, y0, x1, y1); a 3D grid's
+    ``u_<name>_size`` (W, H, D), ``u_<name>_lo`` and ``u_<name>_hi`` (its box's corners) and
+    ``u_<name>_tiles`` (columns, rows)."""
 
     name: str
     shape: tuple
@@ -45,53 +50,127 @@ class Grid:
         if not (isinstance(self.name, str) and self.name.isidentifier()):
             raise ParameterError(f"grid name must be a GLSL identifier, got {self.name!r}")
         shape = tuple(self.shape) if np.ndim(self.shape) == 1 else ()
-        if len(shape) != 2:
-            raise ParameterError(f"grid {self.name!r}: shape must be (W, H), got {self.shape!r}")
+        if len(shape) not in (2, 3):
+            raise ParameterError(f"grid {self.name!r}: shape must be (W, H) or (W, H, D), got "
+                                 f"{self.shape!r}")
         shape = tuple(int(check_range(f"grid {self.name!r} {axis}", n, 1, 2 ** 15, integer=True))
-                      for axis, n in zip(("W", "H"), shape))
-        box = ((0.0, 0.0), tuple(map(float, shape))) if self.box is None else self.box
+                      for axis, n in zip("WHD", shape))
+        d = len(shape)
+        box = ((0.0,) * d, tuple(map(float, shape))) if self.box is None else self.box
+        corners = "((x0, y0), (x1, y1))" if d == 2 else "((x0, y0, z0), (x1, y1, z1))"
         try:
-            (x0, y0), (x1, y1) = box
-            box = ((check_range(f"grid {self.name!r} box x0", x0),
-                    check_range(f"grid {self.name!r} box y0", y0)),
-                   (check_range(f"grid {self.name!r} box x1", x1),
-                    check_range(f"grid {self.name!r} box y1", y1)))
+            lo, hi = box
+            if len(lo) != d or len(hi) != d:
+                raise ValueError
+            box = tuple(tuple(check_range(f"grid {self.name!r} box {a}{end}", v)
+                              for a, v in zip("xyz", corner))
+                        for end, corner in ((0, lo), (1, hi)))
         except (TypeError, ValueError):
-            raise ParameterError(f"grid {self.name!r}: box must be ((x0, y0), (x1, y1)), got "
+            raise ParameterError(f"grid {self.name!r}: box must be {corners}, got "
                                  f"{self.box!r}") from None
-        if not (box[1][0] > box[0][0] and box[1][1] > box[0][1]):
-            raise ParameterError(f"grid {self.name!r}: box must have x1 > x0 and y1 > y0, got "
-                                 f"{box}")
+        if not all(b > a for a, b in zip(*box)):
+            raise ParameterError(f"grid {self.name!r}: box must have "
+                                 f"{', '.join(f'{a}1 > {a}0' for a in 'xyz'[:d])}, got {box}")
         object.__setattr__(self, "shape", shape)
         object.__setattr__(self, "box", box)
 
     @property
+    def dimensions(self):
+        return len(self.shape)
+
+    @property
+    def cells(self):
+        """How many cells: W H (D)."""
+        return math.prod(self.shape)
+
+    @property
     def cell(self):
-        """The world size (dx, dy) of a cell."""
-        (x0, y0), (x1, y1) = self.box
-        return ((x1 - x0) / self.shape[0], (y1 - y0) / self.shape[1])
+        """The world size (dx, dy) (3D: (dx, dy, dz)) of a cell."""
+        return tuple((b - a) / n for a, b, n in zip(*self.box, self.shape))
+
+    @property
+    def tiles(self):
+        """(columns, rows) of slices in a 3D grid's atlas, as square as the slices allow; (1, 1)
+        for a 2D grid."""
+        if self.dimensions == 2:
+            return (1, 1)
+        w, h, d = self.shape
+        columns = max(1, min(d, math.ceil(math.sqrt(d * h / w))))
+        return (columns, -(-d // columns))
+
+    @property
+    def size(self):
+        """The texture's size in texels: W x H, or the atlas's."""
+        return (self.shape[0] * self.tiles[0], self.shape[1] * self.tiles[1])
+
+    def describe(self):
+        """'8x4 cells over (0, 0)-(2, 1)', and a 3D grid's atlas."""
+        lo, hi = (", ".join(f"{v:g}" for v in corner) for corner in self.box)
+        text = f"{'x'.join(map(str, self.shape))} cells over ({lo})-({hi})"
+        if self.dimensions == 3:
+            text += (f", slices in an atlas of {self.tiles[0]}x{self.tiles[1]} tiles "
+                     f"({self.size[0]}x{self.size[1]} texels)")
+        return text
 
     def layout(self, max_texture_size):
-        """The grid's texture layout: one texel per cell; checks it fits the context."""
-        w, h = self.shape
+        """The grid's texture layout: one texel per cell (a 3D grid's atlas, spare tiles
+        included); checks it fits the context."""
+        w, h = self.size
         if max(w, h) > max_texture_size:
-            raise ParameterError(f"grid {self.name!r} is {w}x{h} cells; this context's textures "
-                                 f"are at most {max_texture_size} texels a side")
+            cells = "x".join(map(str, self.shape))
+            atlas = f" in an atlas of {w}x{h} texels" if self.dimensions == 3 else ""
+            raise ParameterError(f"grid {self.name!r} is {cells} cells{atlas}; this context's "
+                                 f"textures are at most {max_texture_size} texels a side")
         return Layout(w * h, w, h)
 
     def uniforms(self):
-        """``u_<name>_size`` and ``u_<name>_box``."""
-        (x0, y0), (x1, y1) = self.box
-        return {f"u_{self.name}_size": (float(self.shape[0]), float(self.shape[1])),
-                f"u_{self.name}_box": (float(x0), float(y0), float(x1), float(y1))}
+        """``u_<name>_size`` and ``u_<name>_box`` (3D: ``_size``, ``_lo``, ``_hi``,
+        ``_tiles``)."""
+        size = tuple(map(float, self.shape))
+        if self.dimensions == 2:
+            (x0, y0), (x1, y1) = self.box
+            return {f"u_{self.name}_size": size,
+                    f"u_{self.name}_box": (float(x0), float(y0), float(x1), float(y1))}
+        return {f"u_{self.name}_size": size, f"u_{self.name}_lo": tuple(map(float, self.box[0])),
+                f"u_{self.name}_hi": tuple(map(float, self.box[1])),
+                f"u_{self.name}_tiles": tuple(map(float, self.tiles))}
 
     def centres(self):
-        """World coordinates (H, W, 2) of the cell centres, float64, row 0 at the bottom."""
-        (x0, y0), (x1, y1) = self.box
-        w, h = self.shape
-        x = x0 + (np.arange(w) + 0.5) * (x1 - x0) / w
-        y = y0 + (np.arange(h) + 0.5) * (y1 - y0) / h
-        return np.stack(np.meshgrid(x, y), axis=-1)
+        """World coordinates of the cell centres, float64: (H, W, 2), row 0 at the bottom; a 3D
+        grid's (D, H, W, 3)."""
+        axes = [a + (np.arange(n) + 0.5) * (b - a) / n for a, b, n in zip(*self.box, self.shape)]
+        return np.stack([g.T for g in np.meshgrid(*axes, indexing="ij")], axis=-1)
+
+    def texel_rows(self, values):
+        """Values (H, W, C) (3D: (D, H, W, C), or flat, one row a cell in that order) as one row a
+        texel of the grid's texture, row by row (a 3D grid's spare tiles zero); anything else as
+        it is, for the caller's shape check."""
+        values = np.asarray(values)
+        if self.dimensions == 2:
+            if values.ndim >= 2 and values.shape[:2] == self.shape[::-1]:
+                return values.reshape(self.cells, -1)
+            return values
+        w, h, d = self.shape
+        if values.ndim == 1 and values.shape[0] == self.cells:
+            values = values[:, None]
+        if values.ndim == 2 and values.shape[0] == self.cells:
+            values = values.reshape(d, h, w, -1)
+        if values.ndim != 4 or values.shape[:3] != (d, h, w):
+            return values
+        columns, rows = self.tiles
+        atlas = np.zeros((rows * columns, h, w, values.shape[3]), values.dtype)
+        atlas[:d] = values
+        atlas = atlas.reshape(rows, columns, h, w, -1).transpose(0, 2, 1, 3, 4)
+        return atlas.reshape(rows * h * columns * w, -1)
+
+    def arranged(self, rows):
+        """One row a texel (the texture's order) as the grid's array: (H, W, C), or a 3D grid's
+        (D, H, W, C) (spare tiles dropped)."""
+        if self.dimensions == 2:
+            return rows.reshape(self.shape[1], self.shape[0], -1)
+        (w, h, d), (columns, tiles) = self.shape, self.tiles
+        atlas = rows.reshape(tiles, h, columns, w, -1).transpose(0, 2, 1, 3, 4)
+        return atlas.reshape(tiles * columns, h, w, -1)[:d]
 
 
 @dataclass(frozen=True)
@@ -382,12 +461,11 @@ def part_textures(texels, layout, fmt):
 
 
 def as_rows(quantity, layout, values):
-    """``values`` one row an element: a grid quantity's (H, W, components) flattened row by
-    row as its texels are; anything else as it is (``encode_values`` checks it)."""
+    """``values`` one row an element: a grid quantity's (H, W, components) (3D: (D, H, W,
+    components)) as its texels are ordered (:meth:`Grid.texel_rows`); anything else as it is
+    (``encode_values`` checks it)."""
     grid = quantity.domain
-    if grid is not None and np.ndim(values) >= 2 and np.shape(values)[:2] == grid.shape[::-1]:
-        return np.reshape(values, (layout.count, -1))
-    return values
+    return values if grid is None else grid.texel_rows(values)
 
 
 def encode_values(quantity, layout, values, fmt):

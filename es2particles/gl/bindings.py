@@ -25,7 +25,10 @@ two can never disagree:
   ``read_q(uv)``: ``q_at(cell)`` (the value of cell (i, j), clamped to the grid: stencils) and
   ``sample_q(point)`` (bilinear at a world point, from the four decoded cells around it: linear
   filtering of packed bytes would mix high and low bytes); a pass over a grid gets
-  ``grid_cell()`` (the (i, j) it computes) and ``grid_point()`` (that cell's centre).
+  ``grid_cell()`` (the (i, j) it computes) and ``grid_point()`` (that cell's centre). On a 3D
+  grid (an atlas of slices) the same take and give vec3: ``q_at(vec3 cell)``, a trilinear
+  ``sample_q(vec3 point)`` across slices, ``grid_cell()`` (i, j, k), with ``u_G_size`` (W, H,
+  D), ``u_G_lo``/``u_G_hi`` (the box's corners) and ``u_G_tiles`` (the atlas's columns, rows).
 
 Pure Python, no GL: the executor compiles what is written here, and tests read it.
 """
@@ -146,20 +149,47 @@ def _reader(out, quantity, fmt, this_step, salt):
                    None if quantity.storage or grid is not None else salt)
     if grid is not None:
         _grid_uniforms(out, grid)
-        g, kind = grid.name, GLSL_TYPES[c]
-        out.lines += [
-            f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
-            "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
-                 f"/ u_{g}_size);", "}",
-            f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, from decoded cells",
-            "{", f"    vec2 c = (point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * "
-                 f"u_{g}_size - 0.5;",
-            "    vec2 i = floor(c);", "    vec2 t = c - i;",
-            f"    return mix(mix({q}_at(i), {q}_at(i + vec2(1.0, 0.0)), t.x),",
-            f"               mix({q}_at(i + vec2(0.0, 1.0)), {q}_at(i + vec2(1.0, 1.0)), t.x), "
-            "t.y);", "}"]
+        out.lines += (_grid_reads_2d if grid.dimensions == 2 else _grid_reads_3d)(
+            q, grid.name, GLSL_TYPES[c])
         out.owners.setdefault(f"{q}_at", f"quantity {q!r}")
         out.owners.setdefault(f"sample_{q}", f"quantity {q!r}")
+
+
+def _grid_reads_2d(q, g, kind):
+    """``q_at(cell)`` and ``sample_q(point)`` of a quantity on 2D grid ``g``."""
+    return [
+        f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
+        "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
+             f"/ u_{g}_size);", "}",
+        f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, from decoded cells",
+        "{", f"    vec2 c = (point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * "
+             f"u_{g}_size - 0.5;",
+        "    vec2 i = floor(c);", "    vec2 t = c - i;",
+        f"    return mix(mix({q}_at(i), {q}_at(i + vec2(1.0, 0.0)), t.x),",
+        f"               mix({q}_at(i + vec2(0.0, 1.0)), {q}_at(i + vec2(1.0, 1.0)), t.x), "
+        "t.y);", "}"]
+
+
+def _grid_reads_3d(q, g, kind):
+    """``q_at(cell)`` and ``sample_q(point)`` of a quantity on 3D grid ``g``: cell (i, j, k)
+    is texel (i, j) of slice k's tile in the atlas; the sample is trilinear across slices."""
+    def at(dx, dy, dz):
+        return f"{q}_at(i + vec3({dx}.0, {dy}.0, {dz}.0))"
+
+    def plane(dz):  # bilinear in slice k + dz
+        return (f"mix(mix({at(0, 0, dz)}, {at(1, 0, dz)}, t.x), "
+                f"mix({at(0, 1, dz)}, {at(1, 1, dz)}, t.x), t.y)")
+    return [
+        f"{kind} {q}_at(vec3 cell)  // cell (i, j, k) of grid {g}, clamped to the grid",
+        "{", f"    vec3 c = clamp(floor(cell), vec3(0.0), u_{g}_size - 1.0);",
+        f"    float row = floor((c.z + 0.5) / u_{g}_tiles.x);",
+        f"    vec2 texel = vec2(c.z - row * u_{g}_tiles.x, row) * u_{g}_size.xy + c.xy;",
+        f"    return read_{q}((texel + 0.5) / (u_{g}_size.xy * u_{g}_tiles));", "}",
+        f"{kind} sample_{q}(vec3 point)  // trilinear at a world point, from decoded cells",
+        "{", f"    vec3 c = (point - u_{g}_lo) / (u_{g}_hi - u_{g}_lo) * u_{g}_size - 0.5;",
+        "    vec3 i = floor(c);", "    vec3 t = c - i;",
+        f"    {kind} below = {plane(0)};", f"    {kind} above = {plane(1)};",
+        "    return mix(below, above, t.z);", "}"]
 
 
 def _grid_uniforms(out, grid):
@@ -263,6 +293,24 @@ def generated_values(interface, layout):
             "u_count": float(layout.count)}
 
 
+def _grid_cell(g):
+    """The bodies of a 2D grid pass's ``grid_cell()`` and ``grid_point()``."""
+    return (["{", f"    return floor(v_uv * u_{g}_size);  // the cell (i, j) computed", "}"],
+            ["{", f"    return u_{g}_box.xy + (grid_cell() + 0.5) / u_{g}_size * "
+                  f"(u_{g}_box.zw - u_{g}_box.xy);", "}"])
+
+
+def _grid_cell_3d(g):
+    """The bodies of a 3D grid pass's ``grid_cell()`` (the cell (i, j, k) of the atlas texel
+    computed; k >= D on a spare tile) and ``grid_point()``."""
+    return (["{", f"    vec2 texel = floor(v_uv * u_{g}_size.xy * u_{g}_tiles);",
+             f"    vec2 tile = floor((texel + 0.5) / u_{g}_size.xy);",
+             f"    return vec3(texel - tile * u_{g}_size.xy, tile.y * u_{g}_tiles.x + tile.x);",
+             "}"],
+            ["{", f"    return u_{g}_lo + (grid_cell() + 0.5) / u_{g}_size * "
+                  f"(u_{g}_hi - u_{g}_lo);", "}"])
+
+
 def pass_interface(spec, quantities, fmt, part=0, neighbours=None):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`);
     ``neighbours``: (lines, samplers, fixed uniforms) of the neighbour grid it reads
@@ -272,13 +320,13 @@ def pass_interface(spec, quantities, fmt, part=0, neighbours=None):
     grid = quantities[spec.writes].domain
     if grid is not None:
         _grid_uniforms(out, grid)
-        g = grid.name
-        out.declare("vec2 grid_cell()", "grid_cell", "the built-in grid_cell()")
-        out.lines += ["{", "    return floor(v_uv * u_%s_size);  // the cell (i, j) computed" % g,
-                      "}"]
-        out.declare("vec2 grid_point()", "grid_point", "the built-in grid_point()")
-        out.lines += ["{", f"    return u_{g}_box.xy + (grid_cell() + 0.5) / u_{g}_size * "
-                           f"(u_{g}_box.zw - u_{g}_box.xy);", "}"]
+        out.declare(f"{GLSL_TYPES[grid.dimensions]} grid_cell()", "grid_cell",
+                    "the built-in grid_cell()")
+        cell, point = (_grid_cell if grid.dimensions == 2 else _grid_cell_3d)(grid.name)
+        out.lines += cell
+        out.declare(f"{GLSL_TYPES[grid.dimensions]} grid_point()", "grid_point",
+                    "the built-in grid_point()")
+        out.lines += point
     for name in spec.reads:
         _reader(out, quantities[name], fmt, False, READ_SALTS["pass"])
     for name in spec.reads_new:

@@ -26,6 +26,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
+import numpy as np  # noqa: E402
 from es2particles import open_context  # noqa: E402
 from es2particles.errors import Es2ParticlesError  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
@@ -131,8 +132,6 @@ def shader_rates(mgl, side, repeats, iterations=64):
     of a ``side``^2 rgba32f target, in a full-screen fragment pass and in a compute shader (GL
     4.3), and the fill rate of a pass that only writes. A plain GL 4.3 probe, outside the
     framework: it says what the card's fragment stage can do at all. Returns {name: seconds}."""
-    import numpy as np
-
     head = "#version 430\nuniform int u_n; uniform vec4 u_k;\n"
     fragment = mgl.program(
         vertex_shader="#version 430\nin vec2 a; void main() { gl_Position = vec4(a, 0.0, 1.0); }",
@@ -247,6 +246,16 @@ def main(argv=None):
             seconds = step_seconds(ctx, Wind(grid=f"{cells}x{cells}"), big, size, repeats)
             results.add(f"wind {cells}^2 {log2(big)}", 1 / seconds, "steps/s",
                         f"{cells}^2 cells, 40 pressure iterations, {big} particles")
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        from sampling import ours as sample_ms
+
+        for dims in (2, 3):  # a grid's samples by hand and by the hardware's LINEAR filter
+            points = np.random.default_rng(1).uniform(0, 64, (big, dims))
+            hand, hardware = (sample_ms(ctx, dims, "rgba32f", s, points, repeats)
+                              for s in ("hand", "hardware"))
+            results.add(f"{dims}D samples hand / hardware", hand / hardware, "x",
+                        f"{big} samples of a rgba32f grid: {hand:.2f} ms by hand, "
+                        f"{hardware:.2f} ms by the hardware")
         from es2particles.scenes.liquid import Liquid
 
         seconds = frame_seconds(ctx, Liquid(), 2 ** 16, size, repeats)

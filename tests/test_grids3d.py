@@ -157,3 +157,109 @@ def test_particles_sample_a_3d_grid_trilinearly(gl, fmt):
     bound = {"rgba8": CODE, "rgba32f": 0}[fmt] + 6e-6
     print(f"{fmt}: max |error| {np.abs(error).max():.3e} (bound {bound:.3e})")
     assert np.abs(error).max() <= bound
+
+
+# --- samples by the hardware ---------------------------------------------------------------------
+
+def sampled_graph(shape, box, sampling, position_range):
+    g = PassGraph()
+    g.grid("cells", shape, box)
+    g.quantity("f", -1, 1, components=1, domain="cells", sampling=sampling)
+    g.quantity("position", *position_range)
+    g.quantity("value", -1, 1, components=1)
+    g.add("keep_f", shader("grids/keep_f.frag"), writes="f", reads=["f"])
+    g.add("keep_position", shader("keep_position.frag"), writes="position", reads=["position"])
+    g.add("sample", shader("grids/sample3d.frag" if len(shape) == 3 else "grids/sample.frag"),
+          writes="value", reads=["position", "f"])
+    return g
+
+
+def test_the_plan_says_how_each_grid_quantity_is_sampled():
+    from dataclasses import replace as changed
+
+    from es2particles.frame.plan import plan_graph
+    from es2particles.gl.context import Capabilities
+
+    def notes(sampling, fmt, caps=Capabilities.assumed()):
+        graph = sampled_graph(SHAPE, BOX, sampling, ((-1, 0, 0.5), (2, 1.5, 3)))
+        return [n for n in plan_graph(graph, 100, fmt=fmt, caps=caps).notes if "sample_" in n]
+    assert notes("hardware", "rgba32f") == [
+        "sample_f: trilinear by the hardware (rgba32f filtered LINEAR, one fetch a slice; "
+        "weights at its sub-texel precision)"]
+    assert notes("hand", "rgba32f") == [
+        "sample_f: trilinear by hand from 8 decoded cells (declared by hand: exact to float32)"]
+    assert notes("hardware", "rgba8") == [
+        "sample_f: trilinear by hand from 8 decoded cells (rgba8 is packed: linear filtering "
+        "would mix its bytes)"]
+    es = changed(Capabilities.assumed(), version="OpenGL ES 2.0 Mesa")
+    assert notes("hardware", "rgba16f", es) == [
+        "sample_f: trilinear by hand from 8 decoded cells (this context does not filter rgba16f "
+        "LINEAR)"]
+    es = changed(es, extensions=frozenset({"GL_OES_texture_half_float_linear"}))
+    assert "by the hardware (rgba16f" in notes("hardware", "rgba16f", es)[0]
+    with pytest.raises(ParameterError, match="sampling must be 'hand' or 'hardware', got 'gpu'"):
+        PassGraph().quantity("q", 0, 1, sampling="gpu")
+    with pytest.raises(ParameterError, match="sampling='hardware' is for a grid's quantities"):
+        PassGraph().quantity("q", 0, 1, sampling="hardware")
+
+
+# Hardware filtering's weights are the implementation's: D3D10 and on ask 8 bits of sub-texel
+# precision, which NVIDIA gives; llvmpipe filters float textures in float. A weight rounded to 8
+# bits is off by at most 2^-9, on each axis: the bound is 2^-9 of the cells' spread per axis.
+WEIGHT = 2 ** -9
+
+
+@pytest.mark.parametrize("dims", [2, 3])
+@pytest.mark.parametrize("fmt", ["rgba32f", "rgba16f"])
+def test_samples_by_the_hardware_match_float64(gl, fmt, dims):
+    ndimage = pytest.importorskip("scipy.ndimage")
+    shape, box = (SHAPE, BOX) if dims == 3 else (SHAPE[:2], (BOX[0][:2], BOX[1][:2]))
+    lo, hi = np.array(box[0]), np.array(box[1])
+    rng = np.random.default_rng(393 + dims)
+    n = 4000
+    with Simulation(gl, sampled_graph(shape, box, "hardware", (lo - 0.5, hi + 0.5)), n,
+                    outputs=["value"], fmt=fmt) as sim:
+        assert any(f"sample_f: {('bi', 'tri')[dims - 2]}linear by the hardware" in line
+                   for line in sim.describe())
+        sim.upload("f", rng.uniform(-1, 1, shape[::-1] + (1,)))
+        sim.upload("position", rng.uniform(lo - 0.4, hi + 0.4, (n, dims)))
+        field, points = sim.download("f")[..., 0], sim.download("position")
+        sim.step()
+        got = sim.download("value")[:, 0]
+    index = ((points - lo) / (hi - lo) * shape - 0.5)[:, ::-1].T  # (k,) j, i
+    want = ndimage.map_coordinates(field, index, order=1, mode="nearest")
+    spread = (ndimage.maximum_filter(field, size=2, origin=0, mode="nearest")
+              - ndimage.minimum_filter(field, size=2, origin=0, mode="nearest"))
+    # the spread of each sample's 2^d cells: the filters' windows reach back one cell
+    local = ndimage.map_coordinates(spread, np.floor(index) + 1, order=0, mode="nearest")
+    # The output's rounding (half float: a unit in the last place of values below 1, 2^-11, as
+    # llvmpipe truncates to half; see test_wind) and float32's weights (as by hand) beside the
+    # hardware's.
+    write = {"rgba32f": 0, "rgba16f": 2 ** -11}[fmt] + 6e-6
+    error = np.abs(got - want)
+    beyond = np.maximum(error - write, 0) / np.maximum(local, 1e-9)
+    print(f"{fmt} {dims}D: max |error| {error.max():.3e} (write {write:.2e}); beyond the "
+          f"write, max share of the spread {beyond.max():.2e} (bound {dims * WEIGHT:.2e})")
+    assert np.all(error <= dims * WEIGHT * local + write)
+
+
+def test_a_context_that_cannot_filter_samples_by_hand(gl, monkeypatch):
+    """sampling='hardware' on a context without float filtering (an ES 2.0 one lacking
+    OES_texture_float_linear) is the by-hand sample, exact to float32."""
+    ndimage = pytest.importorskip("scipy.ndimage")
+    from es2particles.gl.context import Capabilities
+
+    monkeypatch.setattr(Capabilities, "filters", lambda caps, fmt: fmt == "rgba8")
+    lo, hi = np.array(BOX[0]), np.array(BOX[1])
+    rng = np.random.default_rng(396)
+    with Simulation(gl, sampled_graph(SHAPE, BOX, "hardware", (lo - 0.5, hi + 0.5)), 2000,
+                    outputs=["value"], fmt="rgba32f") as sim:
+        assert any("does not filter rgba32f LINEAR" in line for line in sim.describe())
+        sim.upload("f", rng.uniform(-1, 1, SHAPE[::-1] + (1,)))
+        sim.upload("position", rng.uniform(lo - 0.4, hi + 0.4, (2000, 3)))
+        field, points = sim.download("f")[..., 0], sim.download("position")
+        sim.step()
+        got = sim.download("value")[:, 0]
+    index = ((points - lo) / (hi - lo) * SHAPE - 0.5)[:, ::-1].T
+    want = ndimage.map_coordinates(field, index, order=1, mode="nearest")
+    assert np.abs(got - want).max() <= 6e-6

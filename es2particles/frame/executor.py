@@ -76,7 +76,7 @@ class Executor:
             if r.quantity.storage:
                 self.ctx.require_format(r.quantity.storage)
             return StateBuffer(self.group, r.quantity, self.plan.layout_of(r.quantity), r.format,
-                               r.buffers)
+                               r.buffers, r.linear)
         if r.kind == "image":
             if not isinstance(r.data, np.ndarray):  # ASTC blocks
                 return self.group.compressed_texture(r.data)

@@ -282,13 +282,16 @@ class PassGraph:
         self.grids[name] = Grid(name, shape, box)
         return self.grids[name]
 
-    def quantity(self, name, lo, hi, components=None, storage=None, domain=None, bits=16):
+    def quantity(self, name, lo, hi, components=None, storage=None, domain=None, bits=16,
+                 sampling="hand"):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
         per component; ``components`` defaults to their length, else 2); ``storage`` pins its
         format (see :class:`~es2particles.frame.state.Quantity`); ``domain``: the grid it lives
         on (a :meth:`grid` or its name; None: the particles); ``bits=32``: kept to float32's
-        precision in every format (32-bit packed where the simulation's holds less); returns
-        it."""
+        precision in every format (32-bit packed where the simulation's holds less);
+        ``sampling="hardware"``: a grid quantity's ``sample_q`` filtered by the hardware where
+        it is stored as floats the context filters (see
+        :class:`~es2particles.frame.state.Quantity`); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
         if isinstance(domain, str):
@@ -299,7 +302,8 @@ class PassGraph:
         elif domain is not None and self.grids.get(getattr(domain, "name", None)) is not domain:
             raise GraphError(f"quantity {name!r}: its domain must be a grid this graph declares "
                              "(PassGraph.grid)")
-        self.quantities[name] = Quantity(name, lo, hi, components, storage, domain, bits)
+        self.quantities[name] = Quantity(name, lo, hi, components, storage, domain, bits,
+                                         sampling)
         return self.quantities[name]
 
     def neighbours(self, name, of, cell, box=None, bound=64, this_step=False):

@@ -22,6 +22,7 @@ WebGL page (``export/``), which serialises it. Renderers are chosen by what the 
 :class:`~es2particles.render.sprites.Sprites`), never by a string.
 """
 
+import re
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -392,6 +393,9 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
         builder.resource(Resource(name, "state", layout_of(q).size, q.format_in(fmt),
                                   parts=q.parts(fmt), buffers=n, swap=swap, quantity=q,
                                   what=f"quantity, {q.components} components{where}"))
+    hardware = _sampled_grids(builder, plan, fmt)
+    for name in hardware:
+        builder.resources[name] = replace(builder.resources[name], linear=True)
     for name, data in plan.textures.items():
         compressed = not isinstance(data, np.ndarray)
         fmt_of = "rgba8" if compressed else {np.dtype(np.uint8): "rgba8",
@@ -414,7 +418,7 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
             n = plan.neighbours[spec.neighbours]
             near = interface_lines(n, orders[n.name], layout)
             defines.update(orders[n.name].defines())
-        interface = pass_interface(spec, graph.quantities, fmt, part, near)
+        interface = pass_interface(spec, graph.quantities, fmt, part, near, hardware)
         stage_name = spec.stage(part)
         source = expand(spec.frag, defines, interface.lines, interface.epilogue)
         _, referenced = _names(source)
@@ -443,6 +447,39 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
     builder.left_out += [f"quantity {q}" for q in plan.left_out_quantities]
     builder.left_out += [f"texture {t}" for t in plan.left_out_textures]
     return plan
+
+
+def _sampled_grids(builder, plan, fmt):
+    """The grid quantities whose samples (``sample_q``) the hardware filters: those declared
+    ``sampling="hardware"`` that are stored as floats in a format this context filters LINEAR.
+    The rest are sampled by hand from decoded cells; a note says which for each one sampled."""
+    from ..gl.bindings import strip_comments
+    from ..gl.shaders import expand
+
+    on_grids = {q for q in plan.buffers if plan.quantities[q].domain is not None}
+    sampled = set()
+    for spec in plan.passes:
+        reads = (set(spec.reads) | set(spec.reads_new)) & on_grids - sampled
+        if reads:
+            text = strip_comments(expand(spec.frag, dict(spec.defines)).text)
+            sampled |= {q for q in reads if re.search(rf"\bsample_{q}\b", text)}
+    hardware = set()
+    for name in sorted(sampled):
+        q = plan.quantities[name]
+        stored, how = q.format_in(fmt), ("bilinear", "trilinear")[q.domain.dimensions - 2]
+        floats = stored in ("rgba16f", "rgba32f")
+        if q.sampling == "hardware" and floats and builder.caps.filters(stored):
+            hardware.add(name)
+            taps = ", one fetch a slice" if q.domain.dimensions == 3 else ""
+            builder.notes.append(f"sample_{name}: {how} by the hardware ({stored} filtered "
+                                 f"LINEAR{taps}; weights at its sub-texel precision)")
+            continue
+        why = (f"{stored} is packed: linear filtering would mix its bytes" if not floats else
+               "declared by hand: exact to float32" if q.sampling == "hand" else
+               f"this context does not filter {stored} LINEAR")
+        builder.notes.append(f"sample_{name}: {how} by hand from "
+                             f"{4 * (q.domain.dimensions - 1)} decoded cells ({why})")
+    return frozenset(hardware)
 
 
 def plan_graph(graph, count, outputs=None, fmt="rgba8", rounding="nearest", caps=None):

@@ -26,6 +26,7 @@ from ..errors import ParameterError, check_range
 FORMATS = ("rgba8", "rgba16f", "rgba32f")  # a simulation's
 STORAGE = FORMATS + ("rgba8_32",)  # a quantity's: the simulation's, or 32-bit packed RGBA8
 BITS = (16, 32)
+SAMPLING = ("hand", "hardware")
 AXES = "xyzw"
 
 
@@ -180,7 +181,11 @@ class Quantity:
     ``lo`` and ``hi`` are numbers (the same for every component) or sequences of one number per
     component; ``components`` defaults to their length, or 2 where both are numbers. ``storage``
     pins the quantity to one format in every simulation (a step counter that must stay exact in
-    16-bit codes, say); by default it takes the simulation's.
+    16-bit codes, say); by default it takes the simulation's. ``sampling`` (a grid quantity's):
+    how ``sample_q`` interpolates: ``"hand"`` from decoded cells, exact to float32 in every
+    format; ``"hardware"``, one LINEAR-filtered fetch a slice where it is stored as floats and
+    the context filters them (by hand otherwise), faster, its weights at the hardware's
+    sub-texel precision (8 bits on many GPUs: 2^-9 of a cell-to-cell difference).
     """
 
     name: str
@@ -190,6 +195,7 @@ class Quantity:
     storage: str = None  # a format this quantity keeps whatever the simulation's (None: that)
     domain: Grid = None  # the grid it lives on; None: the particles
     bits: int = 16  # 32: at least float32's precision in every simulation (see format_in)
+    sampling: str = "hand"  # a grid quantity's samples: "hand" or "hardware" (filtered LINEAR)
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -223,6 +229,12 @@ class Quantity:
         if self.bits not in BITS:
             raise ParameterError(f"quantity {self.name!r}: bits must be 16 or 32, got "
                                  f"{self.bits!r}")
+        if self.sampling not in SAMPLING:
+            raise ParameterError(f"quantity {self.name!r}: sampling must be 'hand' or "
+                                 f"'hardware', got {self.sampling!r}")
+        if self.sampling == "hardware" and self.domain is None:
+            raise ParameterError(f"quantity {self.name!r}: sampling='hardware' is for a grid's "
+                                 "quantities (sample_q); particles are read a texel each")
 
     @property
     def domain_name(self):
@@ -388,9 +400,10 @@ class Textures:
 
 class StateBuffer(Textures):
     """One quantity's textures (see :class:`Textures`), with its values' encoding: uploads,
-    uniform fills and downloads in world units."""
+    uniform fills and downloads in world units. ``linear``: its textures are filtered LINEAR
+    (a float grid quantity the hardware samples; never packed state)."""
 
-    def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2):
+    def __init__(self, group, quantity, layout, fmt="rgba8", buffers=2, linear=False):
         if fmt not in STORAGE:
             raise ParameterError(f"format must be one of {list(STORAGE)}, got {fmt!r}")
         if fmt == "rgba16f":
@@ -399,7 +412,10 @@ class StateBuffer(Textures):
                 raise ParameterError(f"quantity {quantity.name!r} reaches {reach:.3g}, beyond "
                                      f"rgba16f's largest value {HALF_MAX:g}: store it in rgba8 "
                                      "or rgba32f")
-        super().__init__(group, layout.size, fmt, quantity.parts(fmt), buffers)
+        if linear and fmt not in ("rgba16f", "rgba32f"):
+            raise ParameterError(f"quantity {quantity.name!r} is stored {fmt}: packed state "
+                                 "cannot be filtered LINEAR (it would mix its bytes)")
+        super().__init__(group, layout.size, fmt, quantity.parts(fmt), buffers, linear=linear)
         self.quantity, self.layout = quantity, layout
         # Start at world zero (clamped into the range): a GPU clear to that texel, cheaper than
         # encoding and uploading a zero array.

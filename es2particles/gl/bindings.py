@@ -135,7 +135,7 @@ def _ranges(out, quantity):
     _fixed(out, quantity.uniforms(), f"the range of quantity {quantity.name!r}")
 
 
-def _reader(out, quantity, fmt, this_step, salt):
+def _reader(out, quantity, fmt, this_step, salt, hardware=False):
     q, c, fmt = quantity.name, quantity.components, quantity.format_in(fmt)
     _ranges(out, quantity)
     samplers = [f"u_{q}" if part == 0 else f"u_{q}_{part}" for part in range(quantity.parts(fmt))]
@@ -149,47 +149,78 @@ def _reader(out, quantity, fmt, this_step, salt):
                    None if quantity.storage or grid is not None else salt)
     if grid is not None:
         _grid_uniforms(out, grid)
+        if grid.dimensions == 3:
+            _grid_tile(out, grid.name)
         out.lines += (_grid_reads_2d if grid.dimensions == 2 else _grid_reads_3d)(
-            q, grid.name, GLSL_TYPES[c])
+            q, grid.name, GLSL_TYPES[c], hardware)
         out.owners.setdefault(f"{q}_at", f"quantity {q!r}")
         out.owners.setdefault(f"sample_{q}", f"quantity {q!r}")
 
 
-def _grid_reads_2d(q, g, kind):
-    """``q_at(cell)`` and ``sample_q(point)`` of a quantity on 2D grid ``g``."""
-    return [
-        f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
-        "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
-             f"/ u_{g}_size);", "}",
+def _grid_reads_2d(q, g, kind, hardware):
+    """``q_at(cell)`` and ``sample_q(point)`` of a quantity on 2D grid ``g``; with ``hardware``
+    (a float texture filtered LINEAR) the sample is one fetch, its point held within the
+    outer cells' centres (the edge cells extend outwards, as by hand)."""
+    at = [f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
+          "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
+               f"/ u_{g}_size);", "}"]
+    where = f"(point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * u_{g}_size - 0.5"
+    if hardware:
+        return at + [
+            f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, by the hardware",
+            "{", f"    vec2 c = clamp({where}, vec2(0.0), u_{g}_size - 1.0);",
+            f"    return read_{q}((c + 0.5) / u_{g}_size);", "}"]
+    return at + [
         f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, from decoded cells",
-        "{", f"    vec2 c = (point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * "
-             f"u_{g}_size - 0.5;",
+        "{", f"    vec2 c = {where};",
         "    vec2 i = floor(c);", "    vec2 t = c - i;",
         f"    return mix(mix({q}_at(i), {q}_at(i + vec2(1.0, 0.0)), t.x),",
         f"               mix({q}_at(i + vec2(0.0, 1.0)), {q}_at(i + vec2(1.0, 1.0)), t.x), "
         "t.y);", "}"]
 
 
-def _grid_reads_3d(q, g, kind):
+def _grid_tile(out, g):
+    """``G_tile(k)``, the atlas texel of 3D grid ``G``'s slice k's cell (0, 0), declared once."""
+    if f"{g}_tile" not in out.owners:
+        out.declare(f"vec2 {g}_tile(float k)  // the atlas texel of slice k's cell (0, 0)",
+                    f"{g}_tile", f"the atlas of grid {g!r}")
+        out.lines += ["{", f"    float row = floor((k + 0.5) / u_{g}_tiles.x);",
+                      f"    return vec2(k - row * u_{g}_tiles.x, row) * u_{g}_size.xy;", "}"]
+
+
+def _grid_reads_3d(q, g, kind, hardware):
     """``q_at(cell)`` and ``sample_q(point)`` of a quantity on 3D grid ``g``: cell (i, j, k)
-    is texel (i, j) of slice k's tile in the atlas; the sample is trilinear across slices."""
+    is texel (i, j) of slice k's tile in the atlas; the sample is trilinear across slices: by
+    hand from eight decoded cells, or (``hardware``) from two bilinear fetches, one in each
+    slice's tile, held within its outer cells' centres so no tap reaches the next tile."""
     def at(dx, dy, dz):
         return f"{q}_at(i + vec3({dx}.0, {dy}.0, {dz}.0))"
 
     def plane(dz):  # bilinear in slice k + dz
         return (f"mix(mix({at(0, 0, dz)}, {at(1, 0, dz)}, t.x), "
                 f"mix({at(0, 1, dz)}, {at(1, 1, dz)}, t.x), t.y)")
-    return [
+    at_lines = [
         f"{kind} {q}_at(vec3 cell)  // cell (i, j, k) of grid {g}, clamped to the grid",
         "{", f"    vec3 c = clamp(floor(cell), vec3(0.0), u_{g}_size - 1.0);",
-        f"    float row = floor((c.z + 0.5) / u_{g}_tiles.x);",
-        f"    vec2 texel = vec2(c.z - row * u_{g}_tiles.x, row) * u_{g}_size.xy + c.xy;",
-        f"    return read_{q}((texel + 0.5) / (u_{g}_size.xy * u_{g}_tiles));", "}",
-        f"{kind} sample_{q}(vec3 point)  // trilinear at a world point, from decoded cells",
-        "{", f"    vec3 c = (point - u_{g}_lo) / (u_{g}_hi - u_{g}_lo) * u_{g}_size - 0.5;",
-        "    vec3 i = floor(c);", "    vec3 t = c - i;",
-        f"    {kind} below = {plane(0)};", f"    {kind} above = {plane(1)};",
-        "    return mix(below, above, t.z);", "}"]
+        f"    return read_{q}(({g}_tile(c.z) + c.xy + 0.5) / (u_{g}_size.xy * u_{g}_tiles));",
+        "}"]
+    where = f"(point - u_{g}_lo) / (u_{g}_hi - u_{g}_lo) * u_{g}_size - 0.5"
+    if hardware:
+        def tap(k):
+            return (f"read_{q}(({g}_tile(clamp({k}, 0.0, u_{g}_size.z - 1.0)) + xy + 0.5) "
+                    f"/ (u_{g}_size.xy * u_{g}_tiles))")
+        sample = [
+            f"{kind} sample_{q}(vec3 point)  // trilinear at a world point, by the hardware",
+            "{", f"    vec3 c = {where};", "    float k = floor(c.z);",
+            f"    vec2 xy = clamp(c.xy, vec2(0.0), u_{g}_size.xy - 1.0);",
+            f"    return mix({tap('k')}, {tap('k + 1.0')}, c.z - k);", "}"]
+    else:
+        sample = [
+            f"{kind} sample_{q}(vec3 point)  // trilinear at a world point, from decoded cells",
+            "{", f"    vec3 c = {where};", "    vec3 i = floor(c);", "    vec3 t = c - i;",
+            f"    {kind} below = {plane(0)};", f"    {kind} above = {plane(1)};",
+            "    return mix(below, above, t.z);", "}"]
+    return at_lines + sample
 
 
 def _grid_uniforms(out, grid):
@@ -311,10 +342,12 @@ def _grid_cell_3d(g):
                   f"(u_{g}_hi - u_{g}_lo);", "}"])
 
 
-def pass_interface(spec, quantities, fmt, part=0, neighbours=None):
+def pass_interface(spec, quantities, fmt, part=0, neighbours=None, hardware=frozenset()):
     """The interface of draw ``part`` of pass ``spec`` (a :class:`~es2particles.frame.graph.Pass`);
     ``neighbours``: (lines, samplers, fixed uniforms) of the neighbour grid it reads
-    (``frame/neighbours.py``: interface_lines), declared before ``lib/neighbours.glsl``."""
+    (``frame/neighbours.py``: interface_lines), declared before ``lib/neighbours.glsl``;
+    ``hardware``: the grid quantities whose samples the hardware filters (their textures are
+    LINEAR: ``frame/plan.py``'s _sampled_grids)."""
     out = Interface(lines=list(PRELUDE) + ["varying vec2 v_uv;"],
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     grid = quantities[spec.writes].domain
@@ -328,10 +361,10 @@ def pass_interface(spec, quantities, fmt, part=0, neighbours=None):
                     "the built-in grid_point()")
         out.lines += point
     for name in spec.reads:
-        _reader(out, quantities[name], fmt, False, READ_SALTS["pass"])
+        _reader(out, quantities[name], fmt, False, READ_SALTS["pass"], name in hardware)
     for name in spec.reads_new:
         if name != spec.neighbours:
-            _reader(out, quantities[name], fmt, True, READ_SALTS["pass"])
+            _reader(out, quantities[name], fmt, True, READ_SALTS["pass"], name in hardware)
     if spec.neighbours is not None:
         if neighbours is None:
             raise GraphError(f"pass {spec.name!r} reads neighbour grid {spec.neighbours!r}, "

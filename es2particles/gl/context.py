@@ -81,6 +81,15 @@ class Capabilities:
         es = "ES" in self.version or "WebGL" in self.version
         return not es or bool({"GL_OES_depth_texture", "WEBGL_depth_texture"} & self.extensions)
 
+    def filters(self, fmt):
+        """True where textures of storage ``fmt`` may be sampled LINEAR: every format in desktop
+        GL (3.0 and on); in ES 2.0 and WebGL 1 float and half float textures only with
+        OES_texture_float_linear / OES_texture_half_float_linear."""
+        es = "ES" in self.version or "WebGL" in self.version
+        needs = {"rgba32f": "OES_texture_float_linear",
+                 "rgba16f": "OES_texture_half_float_linear"}.get(fmt)
+        return not es or needs is None or bool({needs, "GL_" + needs} & self.extensions)
+
     @property
     def astc(self):
         """True where the driver lists ASTC LDR textures."""

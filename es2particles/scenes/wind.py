@@ -416,6 +416,4 @@ class Wind(Scene):
                 f"fluid: {p.advection} advection, viscosity {p.viscosity:g} m^2/s"
                 + (f" ({p.viscosity_iterations} Jacobi iterations)" if p.viscosity else "")
                 + f", {p.pressure_iterations} pressure iterations from {p.warm_start:g} of last "
-                  f"step's pressure, vorticity {p.vorticity:g}",
-                f"bilinear reads of the wind by hand: 4 fetches, decoded (the packed state is "
-                f"sampled NEAREST)"] + super().describe()
+                  f"step's pressure, vorticity {p.vorticity:g}"] + super().describe()

@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from es2particles.cli import build_parser, main
-from es2particles.frame.settings import SETTINGS, Defaults
+from es2particles.frame.settings import SETTINGS, Defaults, particles_setting
 from es2particles.params import Param
 from es2particles.scenes import BUILT_IN, scene_class
 
@@ -132,7 +132,7 @@ def setting_rows(scene, actions):
             out.append(row(code("--no-bloom"), value_text(None, action), "", "", "bloom on",
                            cell(action.help)))
             continue
-        d = SETTINGS[action.dest]
+        d = particles_setting(scene) if action.dest == "particles" else SETTINGS[action.dest]
         default = scene.default_text(action.dest) if action.dest in SCENE_DEFAULTS \
             else d.describe_value(d.default)
         out.append(row(code(action.option_strings[0]), value_text(d, action), cell(d.unit),

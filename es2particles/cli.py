@@ -359,7 +359,8 @@ def _add_settings(parser, scene):
     """The frame settings ``scene`` uses, one option each (``frame/settings.py``), with this
     scene's default in the help. Each defaults to None, "not given": the default is resolved
     once when the frame is planned."""
-    from .frame.settings import BLOOM_PARTS, COMMON_SETTINGS, SETTINGS, Defaults
+    from .frame.settings import (BLOOM_PARTS, COMMON_SETTINGS, SETTINGS, Defaults,
+                                 particles_setting)
 
     scene_defaults = set(Defaults.__dataclass_fields__)
     used = COMMON_SETTINGS + tuple(scene.renders.settings)
@@ -384,7 +385,7 @@ def _add_settings(parser, scene):
                 parser.add_argument(d.flag_name, dest=part, default=None, metavar="X",
                                     help=d.help_text())
             continue
-        d = SETTINGS[name]
+        d = particles_setting(scene) if name == "particles" else SETTINGS[name]
         default = scene.default_text(name) if name in scene_defaults else None
         metavar = d.metavar or ("{" + ",".join(d.choices) + "}" if d.choices else
                                 ("N" if d.integer else "X"))
@@ -486,7 +487,7 @@ def run_of(args):
     from dataclasses import replace
 
     from .errors import ParameterError
-    from .frame.settings import BLOOM_PARTS, SETTINGS
+    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
     from .render.post import Bloom
     from .run import Run, read_run
 
@@ -498,8 +499,9 @@ def run_of(args):
                                  f"{args.scene}")
     typed = {name: getattr(args, name) for name in SETTINGS
              if name not in BLOOM_PARTS and hasattr(args, name)}
-    settings = {name: value if SETTINGS[name].text else SETTINGS[name].convert(
-                    value, SETTINGS[name].flag_name)
+    declared = {**SETTINGS, "particles": particles_setting(args.scene_class)}
+    settings = {name: value if declared[name].text else declared[name].convert(
+                    value, declared[name].flag_name)
                 for name, value in typed.items() if value is not None}
     if "gradient" in settings and settings["gradient"] == "none":
         settings["gradient"] = None

@@ -102,7 +102,7 @@ def read_run(path):
         if not isinstance(data.get(table, {}), dict):
             raise ParameterError(f"{where}: [{table}] must be a table of values")
     run = Run(scene, dict(data.get("parameters", {})),
-              settings_from_mapping(data.get("settings", {}), where),
+              settings_from_mapping(data.get("settings", {}), where, Run(scene).scene_class()),
               **{k: _number(data, k, where) for k in ("frames", "steps_per_frame", "fps")
                  if k in data})
     declared = run.scene_class().Params.options()
@@ -155,9 +155,10 @@ def resolved_settings(settings, scene):
     return out
 
 
-def settings_from_mapping(mapping, where):
-    """The :class:`FrameSettings` of a run file's [settings] table."""
-    from .frame.settings import BLOOM_PARTS, SETTINGS
+def settings_from_mapping(mapping, where, scene=None):
+    """The :class:`FrameSettings` of a run file's [settings] table (for ``scene``, a scene
+    class: the particle count's range is its own)."""
+    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
     from .render.post import Bloom
 
     known = [n for n in SETTINGS if n not in BLOOM_PARTS] + ["bloom"]
@@ -192,7 +193,9 @@ def settings_from_mapping(mapping, where):
             given["size"] = value if isinstance(value, str) else tuple(value)
         else:
             try:
-                given[name] = SETTINGS[name].convert(value, f"[settings] {name}")
+                declared = (particles_setting(scene) if name == "particles" and scene
+                            else SETTINGS[name])
+                given[name] = declared.convert(value, f"[settings] {name}")
             except ParameterError as error:
                 raise ParameterError(f"{where}: {error}") from None
     return FrameSettings(**given)

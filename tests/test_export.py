@@ -872,6 +872,71 @@ def test_wind_page_steps_its_grids_as_egl_does(gl, browser, tmp_path):
     assert r >= 0.99
 
 
+def test_the_wind_page_with_no_particles_pushes_its_air_under_a_drag(gl, browser, tmp_path):
+    """``--particles 0``: the air alone, drawn as its speed (render/field.py). A drag on the
+    page pushes the air as the window does: pressed at the box's centre and moved 2 pixels
+    right before a step, the step's push is at the pointer with its move over the step's dt
+    (2/128 m in 1/60 s: 0.9375 m/s), as EGL's passes given those uniforms compute it; after the
+    button comes up, the next step pushes nothing. The air's bytes are EGL's within a code, and
+    the page's picture of it is EGL's."""
+    from es2particles.scenes.wind import Wind
+    from es2particles.twins.pack import state_decode
+
+    scene = Wind(grid="64x64", obstacle="none", wind=(0.0, 0.0), walls="slip,slip,slip,slip")
+    size = (128, 128)
+    settings = dict(steps=0, particles=0, size=size)
+    page_path = tmp_path / "wind-alone.html"
+    write_page(page_plan(scene, **settings), page_path)
+    page = Page(browser, page_path)
+
+    def world(x, y):  # the world point under pixel (x, y), rows from the top
+        return (x + 0.5) / size[0], 1 - (y + 0.5) / size[1]
+    radius = scene.push().radius
+    pushes = [((*world(66, 64), radius, 1.0), (2 / 128 * 60, 0.0)),  # pressed and moved
+              ((0.0, 0.0, 1.0, 0.0), (0.0, 0.0))]  # released
+    try:
+        assert not page.errors and not page.call("error"), (page.errors, page.call("error"))
+        box = page.page.locator("#view").bounding_box()
+        page.page.mouse.move(box["x"] + 64, box["y"] + 64)
+        page.page.mouse.down()
+        page.page.mouse.move(box["x"] + 66, box["y"] + 64)
+        page.call("step(1)")
+        web = [page.state("wind")]
+        page.page.mouse.up()
+        page.call("step(1)")
+        web.append(page.state("wind"))
+        page.call("frame()")
+        picture = page.image(size)
+        with Pipeline(gl, scene, **settings) as pipeline:
+            pipeline.begin(1)
+            quantity = pipeline.sim.buffers["wind"].quantity
+            code = float(quantity.span32[0]) / 65024
+            for (at, velocity), texels in zip(pushes, web):
+                pipeline.sim.set_uniforms({"u_drag_at": at, "u_drag_velocity": velocity})
+                pipeline.step(1)
+                egl = pipeline.sim.buffers["wind"].read_texels()[:, 0]
+                apart = np.abs(state_decode(texels[: len(egl), None], quantity.lo32,
+                                            quantity.span32, "rgba8")
+                               - state_decode(egl[:, None], quantity.lo32, quantity.span32,
+                                              "rgba8")) / code
+                assert np.abs(state_decode(egl[:, None], quantity.lo32, quantity.span32,
+                                           "rgba8")).max() > 0.5  # it pushed, then spread
+                print(f"wind alone: the page's air {apart.max():.1f} codes from EGL's")
+                assert apart.max() <= 1.001
+            wind = pipeline.sim.download("wind")
+            pipeline.render()
+            egl_picture = pipeline.image()
+    finally:
+        page.close()
+    pushed = state_decode(web[0][: 64 * 64, None], quantity.lo32, quantity.span32,
+                          "rgba8").reshape(64, 64, 2)
+    near, far = pushed[32, 33, 0], np.abs(pushed[:, :8]).max()
+    print(f"pushed: {near:.3f} m/s under the pointer, {far:.2e} m/s far from it")
+    assert 0.5 < near <= 0.94 and far < 0.05  # the push, and only there
+    assert np.abs(wind).max() < np.abs(pushed).max()  # released: it spreads out
+    compare_images(egl_picture, picture, "the wind's air alone", folder=tmp_path)
+
+
 @pytest.mark.parametrize("name", ["boids", "liquid"])
 def test_a_neighbour_grid_page_steps_as_egl_does(gl, browser, tmp_path, name):
     """The neighbour grids' stages (key pass, sort, cell table, each a stage of the step) run in

@@ -59,7 +59,10 @@ STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^1
 def test_help_states_the_scene_s_own_defaults(capsys, name):
     text = " ".join(help_of(capsys, "run", name).split())
     particles, point_size = STATED[name]
-    assert f"particle count; in [1, inf]; default {particles}" in text
+    if name == "wind":  # the grids alone with --particles 0
+        assert f"particle count (0: the grids alone); in [0, inf]; default {particles}" in text
+    else:
+        assert f"particle count; in [1, inf]; default {particles}" in text
     if point_size is not None:
         assert re.search(rf"--point-size X point or sprite diameter .*?default {point_size}\b",
                          text)

@@ -69,7 +69,8 @@ def stage_sources(stage):
 def programs():
     """(name, source, suffix) of every distinct program source the frame plans of the built-in
     scenes (in variants: reseeded and stateful, tracers, sorted and not, shadowed and not, a
-    float order, fields of every encoding) and the wide test graph hold, in every state format
+    float order, fields of every encoding, the wind's air alone) and the wide test graph and a
+    3D grid's samples (by hand and by the hardware) hold, in every state format
     and rounding: simulation passes, points, sprites, meshes, sort key and merge, shadow map and
     post stages alike."""
     from es2particles.fields.field2d import CollisionField
@@ -78,7 +79,9 @@ def programs():
     from es2particles.frame.state import FORMATS
     from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
     from es2particles.scenes.collision import RECT
+    from es2particles.scenes.wind import Wind
 
+    from test_grids3d import BOX, SHAPE, sampled_graph
     from test_jitter import DeJong16
 
     scenes = {"dejong": DeJong(), "dejong-reseed": DeJong(reseed=True), "clifford": Clifford(),
@@ -102,6 +105,12 @@ def programs():
                          format=fmt, rounding=rounding, particles=4096, size=(64, 64)))]
                      if plan is not None]
             plans.append(("wide", plan_graph(wide_graph(), 64, fmt=fmt, rounding=rounding)))
+            plans.append(("wind-alone", plan_frame(Wind(grid="16x16"), FrameSettings(
+                format=fmt, rounding=rounding, particles=0, size=(64, 64)))))
+            for sampling in ("hand", "hardware"):  # a 3D grid's reads, by hand and LINEAR
+                graph = sampled_graph(SHAPE, BOX, sampling, ((-1, 0, 0.5), (2, 1.5, 3)))
+                plans.append((f"grid3d-{sampling}", plan_graph(graph, 64, fmt=fmt,
+                                                                rounding=rounding)))
             for name, plan in plans:
                 for stage in plan.stages:
                     for source, suffix in zip(stage_sources(stage), (".vert", ".frag")):

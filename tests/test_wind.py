@@ -232,6 +232,12 @@ BAD = [
     (["--viscosity-iterations", "50"], "--viscosity-iterations solve the viscous diffusion, "
                                        "and --viscosity is 0"),
     (["--wind", "0,0", "--gusts", "1,3"], "--gusts vary the --wind force, which is 0,0"),
+    (["--particles", "0", "--relax", "0.5"], "--relax: only the particles use it, and "
+                                             "--particles 0 runs the grids alone"),
+    (["--particles", "0", "--lifetime", "1,5"], "--lifetime: only the particles use it"),
+    (["--particles", "0", "--point-size", "2"], "--point-size: scene 'wind' does not use this "
+                                                "setting (it draws a grid quantity as an image)"),
+    (["--particles", "-1"], "--particles must be in [0, inf], got -1"),
 ]
 
 
@@ -319,3 +325,49 @@ def test_air_held_at_the_range_s_edge_is_said_once(tmp_path, capsys):
     assert err.count("faces' wind is at +-4 m/s, the range's edge") == 1, err
     assert main(["run", "wind", *small, "--out", str(tmp_path / "b.png")]) == 0
     assert "range's edge" not in capsys.readouterr().err
+
+
+def test_a_scene_with_particles_refuses_none(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "nope")
+    assert main(["run", "dejong", "--particles", "0", "--out", str(tmp_path / "x.png")]) == 2
+    err = capsys.readouterr().err
+    assert "--particles must be in [1, inf], got 0" in err and err.count("\n") == 1, err
+
+
+def test_the_air_alone_is_drawn_as_its_speed(gl):
+    """``--particles 0``: no particle quantity is planned or saved, and each pixel of the
+    picture is the gradient map at |wind| / --max-speed, |wind| bilinear at the pixel's centre
+    from the saved cell-centred wind (scipy's map_coordinates, edges extended), with the
+    obstacle's colour over it: within a code (the picture's rounding, half a code, and the
+    ramp read LINEAR between its 256 entries: 8-bit weights move it by 2^-9 of a step between
+    entries of a few codes)."""
+    ndimage = pytest.importorskip("scipy.ndimage")
+    from es2particles.render.ramps import load_ramp
+
+    scene = Wind(grid="48x32", box=(1.5, 1.0), obstacle="circle:0.5,0.5,0.15")
+    size = (150, 100)
+    with Pipeline(gl, scene, particles=0, size=size, steps=30) as pipeline:
+        assert set(pipeline.sim.buffers) == {"u", "v", "wind", "divergence", "pressure"}
+        assert pipeline.sim.count == 0
+        pipeline.begin(1)
+        picture = pipeline.image().astype(float)
+        wind = pipeline.state()["wind"]
+    w, h = size
+    x = (np.arange(w) + 0.5) / w * 1.5
+    y = (np.arange(h)[::-1] + 0.5) / h * 1.0  # the picture's rows from the top
+    gx, gy = np.meshgrid(x / 1.5 * 48 - 0.5, y * 32 - 0.5)
+    speed = np.hypot(*(ndimage.map_coordinates(wind[..., k], [gy, gx], order=1, mode="nearest")
+                       for k in (0, 1)))
+    t = np.clip(speed / scene.params.max_speed, 0, 1) * 255
+    ramp = np.asarray(load_ramp("inferno"), float)[:, :3]
+    i = np.minimum(np.floor(t).astype(int), 254)
+    want = ramp[i] + (t - i)[..., None] * (ramp[i + 1] - ramp[i])
+    cx, cy = np.meshgrid(x, y)
+    clear = np.hypot(cx - 0.5, cy - 0.5) > 0.15 + 2 / 32  # off the obstacle's cells and edge
+    error = np.abs(picture - want)[clear]
+    print(f"air alone: speeds up to {speed.max():.2f} m/s; picture vs float64 ramp: max "
+          f"{error.max():.1f} codes, mean {error.mean():.2f}")
+    assert speed.max() > 1.0  # the air moves: the ramp is exercised, not only its black end
+    assert error.max() <= 1
+    inside = np.hypot(cx - 0.5, cy - 0.5) < 0.15 - 2 / 32
+    assert np.all(np.abs(picture[inside] - (46, 58, 84)) <= 1)  # the obstacle over it

@@ -34,7 +34,8 @@ def share_sizes(run, save_state=False):
     particles = run.settings.particles
     if run.frames != 1 or particles is DEFAULT:
         return None
-    particles = int(check_range("--particles", particles, 1, MAX_PARTICLES, integer=True))
+    lo = 0 if run.scene_class().runs_alone else 1  # 0: the grids alone, one pipeline
+    particles = int(check_range("--particles", particles, lo, MAX_PARTICLES, integer=True))
     if particles <= SHARE:
         return None
     rendering = run.make_scene().rendering()

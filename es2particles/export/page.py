@@ -230,6 +230,7 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
             "camera": _camera(camera), "motion": _motion(plan.motion),
             "controls": [asdict(c) for c in scene.controls()],
             "grip": _grip(scene.grip()),
+            "push": _push(scene, plan),
             # Whether a vertex shader samples a texture (particles by vertex texture fetch):
             # the page needs vertex texture units only then.
             "vertex_fetch": any(s.vertex_interface is not None and s.vertex_interface.samplers
@@ -309,6 +310,20 @@ def _grip(grip):
     """A scene's grip (what a drag moves over the floor), or None."""
     return None if grip is None else {k: _json_number(v) if k not in ("uniform", "velocity")
                                       else v for k, v in asdict(grip).items()}
+
+
+def _push(scene, plan):
+    """A 2D scene's push (what a drag does to the air): its uniforms, radius, the world
+    rectangle the picture shows and the step's dt (the pointer's velocity is its move over a
+    step), or None."""
+    push = scene.push() if not plan.rendering.has_camera else None
+    if push is None:
+        return None
+    if not isinstance(plan.dt, float):
+        raise ParameterError(f"scene {scene.name!r} has a push but no dt a step: the page "
+                             "cannot give the pointer a velocity")
+    return {"at": push.at, "velocity": push.velocity, "radius": _json_number(push.radius),
+            "view": [_json_number(v) for v in scene.view], "dt": plan.dt}
 
 
 def _motion(motion):

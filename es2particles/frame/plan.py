@@ -35,7 +35,8 @@ from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import IDENTITY
 from .settings import (COMMON_SETTINGS, MAX_STEPS, FrameSettings, check_rounding,
-                       check_settings, parse_size, parse_trails, resolve_format)
+                       check_settings, parse_size, parse_trails, resolve_format,
+                       scene_rendering)
 from .state import Layout
 
 # --- frame values -------------------------------------------------------------------------------
@@ -497,7 +498,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     use is an error naming it (:func:`check_settings`)."""
     if caps is None:
         caps = Capabilities.assumed()
-    rendering = scene.rendering()
+    rendering = scene_rendering(scene, settings.particles)
     check_settings(settings, scene, rendering)
     defaults = scene.defaults
     b = PlanBuilder(scene.name, settings, caps, rendering.settings)
@@ -512,7 +513,8 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     trails, value = parse_trails(b.setting("trails", "off"))  # the fade's opacity, ribbons' K
     if trails == "ribbons" and "life" in graph.quantities and graph.writer("life") is not None:
         outputs = tuple(dict.fromkeys(outputs + ("life",)))  # a ribbon ends where a life does
-    count = b.setting("particles", defaults.particles) if graph.quantities else None
+    count = b.setting("particles", defaults.particles) or None  # 0: the grids alone
+    count = count if graph.quantities else None
     plan_simulation(b, graph, outputs, count, b.setting("format", "rgba8"),
                     b.setting("rounding", defaults.rounding))
     present = rendering.plan(b, defaults)

@@ -6,7 +6,7 @@ with no context, so bad input fails in one line before one is opened. The frame 
 them once, against the context's limits (``plan.py``).
 """
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 
 from ..errors import CapabilityError, ParameterError, check_range
 from ..params import Param
@@ -138,7 +138,9 @@ def _setting(name, default, lo=None, hi=None, **kwargs):
 # The frame settings declared once: the command line's options and help, a run file's values.
 # A default of None is the scene's (its Defaults); bloom is declared by its parts.
 SETTINGS = {d.name: d for d in (
-    _setting("particles", None, 1, None, integer=True, help="particle count"),
+    # 0 is taken here and refused by check_settings for a scene that needs particles (all but
+    # those whose grids run alone: Scene.runs_alone); particles_setting words each scene's range.
+    _setting("particles", None, 0, None, integer=True, help="particle count"),
     _setting("size", "1024x1024", text=True, metavar="WxH", help="image size in pixels"),
     _setting("format", "rgba8", choices=("rgba8", "rgba16f", "rgba32f", "auto"),
              help="state storage format (rgba8: 16-bit packed; auto: the most precise one the "
@@ -242,6 +244,36 @@ def frames_independent(scene, settings):
     return bool(scene.stateless) and settings.get("trails", "off") == "off"
 
 
+def particles_setting(scene):
+    """The ``particles`` setting as ``scene`` takes it: from 1, or from 0 where its grids run
+    alone (``Scene.runs_alone``: the picture is then its :meth:`rendering_alone`)."""
+    if getattr(scene, "runs_alone", False):
+        return replace(SETTINGS["particles"], help="particle count (0: the grids alone)")
+    return replace(SETTINGS["particles"], lo=1)
+
+
+def scene_rendering(scene, particles=DEFAULT):
+    """What ``scene`` draws with ``particles``: its :meth:`rendering`, or where its grids run
+    alone and ``particles`` is 0, its :meth:`rendering_alone`."""
+    if particles == 0 and getattr(scene, "runs_alone", False):
+        return scene.rendering_alone()
+    return scene.rendering()
+
+
+def _refuse_particle_params(scene):
+    """With ``--particles 0`` (the grids alone), a parameter only the particles use (the scene's
+    ``particle_params``) set to other than its default is refused in one line."""
+    params = getattr(scene, "params", None)
+    if params is None:
+        return
+    declared = params.declarations()
+    for name in getattr(scene, "particle_params", ()):
+        d = declared[name]
+        if getattr(params, name) != d.convert(type(params).__dataclass_fields__[name].default):
+            raise ParameterError(f"{d.flag_name}: only the particles use it, and --particles 0 "
+                                 f"runs the grids alone: it does nothing here")
+
+
 def check_settings(settings, scene, rendering=None):
     """Check ``settings`` for ``scene`` without a context (what does not depend on one): every
     setting given is one the scene's frame uses, and each is of its kind and in its range (the
@@ -249,7 +281,11 @@ def check_settings(settings, scene, rendering=None):
     planned). Raises :class:`ParameterError` naming the setting."""
     if not isinstance(settings, FrameSettings):
         raise ParameterError(f"settings must be a FrameSettings, got {type(settings).__name__}")
-    rendering = scene.rendering() if rendering is None else rendering
+    if "particles" in settings.given():
+        particles_setting(scene).convert(settings.particles, "--particles")
+    rendering = scene_rendering(scene, settings.particles) if rendering is None else rendering
+    if settings.particles == 0 and getattr(scene, "runs_alone", False):
+        _refuse_particle_params(scene)
     used = set(COMMON_SETTINGS) | set(rendering.settings)
     unused = [name for name in settings.given() if name not in used]
     if unused:

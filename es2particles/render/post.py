@@ -47,18 +47,12 @@ def blur_taps(sigma, taps=12):
     return float(w[0]), pairs
 
 
-def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom(),
-              background=None):
-    """Add the post chain to plan builder ``b``, reading the density in resource ``source``:
-    the tone map (log curve relative to ``mean_density``, the density of an evenly covered
-    pixel; with the gradient map where ``gradient`` is a ramp, grey where None; over the
-    ``background`` image of the scene's objects where one is given), then bloom's bright, blur x
-    and blur y at 1/2 and 1/4 size and its composite (where ``bloom`` is not None). Returns the
-    name of the last stage's target: the picture."""
-    exposure = setting("exposure", exposure)
-    w, h = b.resources[source].size
+def colouring(b, gradient, background, what="the scene's objects, under the particles"):
+    """The gradient map (a ramp, or None: grey) and the scene's background image as resources
+    of plan builder ``b``: (defines, inputs) of a stage that colours with them (GRADIENT and
+    u_ramp, BACKGROUND and u_background)."""
     ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
-    defines, inputs = {}, {"u_density": Ref(source)}
+    defines, inputs = {}, {}
     if ramp is not None:
         b.resource(Resource("ramp", "image", (256, 1), "rgba8", linear=True,
                             data=np.asarray(ramp, np.uint8).reshape(1, 256, 4),
@@ -70,8 +64,24 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom
         bh, bw = background.shape[:2]
         b.resource(Resource("background", "image", (bw, bh), "rgba8", linear=True,
                             data=np.ascontiguousarray(background, np.uint8),
-                            what="the scene's objects, under the particles"))
+                            what=what))
         defines["BACKGROUND"], inputs["u_background"] = None, Ref("background")
+    return defines, inputs
+
+
+def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom(),
+              background=None):
+    """Add the post chain to plan builder ``b``, reading the density in resource ``source``:
+    the tone map (log curve relative to ``mean_density``, the density of an evenly covered
+    pixel; with the gradient map where ``gradient`` is a ramp, grey where None; over the
+    ``background`` image of the scene's objects where one is given), then bloom's bright, blur x
+    and blur y at 1/2 and 1/4 size and its composite (where ``bloom`` is not None). Returns the
+    name of the last stage's target: the picture."""
+    exposure = setting("exposure", exposure)
+    w, h = b.resources[source].size
+    defines, inputs = colouring(b, gradient, background)
+    inputs["u_density"] = Ref(source)
+    ramp = "GRADIENT" in defines
 
     def stage(name, frag, size, uniforms, inputs, defines=None, what=""):
         b.resource(Resource(name, "target", size, "rgba8", linear=True))
@@ -79,7 +89,7 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom
                       target=Ref(name), uniforms=uniforms, what=what))
         return name
 
-    ramp_words = f"gradient map {gradient!r}" if ramp is not None else "grey"
+    ramp_words = f"gradient map {gradient!r}" if ramp else "grey"
     last = stage("tone map", "post/tonemap.frag", (w, h),
                  {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure}, inputs,
                  defines, f"log curve, exposure {exposure:g}, {ramp_words}"

@@ -89,6 +89,8 @@ class Scene:
 
     Params = Params  # a scene's parameters: none by default
     renders = Density  # the kind of rendering() it returns (its frame settings follow from it)
+    runs_alone = False  # True: its grids run with --particles 0, drawn by rendering_alone()
+    particle_params = ()  # of a scene that runs alone: parameters --particles 0 leaves idle
     name = ""
     view = (-1.0, -1.0, 1.0, 1.0)  # a 2D scene's world rectangle: x0, y0, x1, y1
     render_reads = ("position",)  # what a 2D scene's points read: position, and life to fade
@@ -167,6 +169,11 @@ class Scene:
         of :attr:`render_reads` over :attr:`view`, on :meth:`background`; a 3D scene returns a
         :class:`~es2particles.render.sprites.Sprites`."""
         return Density(self.view, self.render_reads, self.background())
+
+    def rendering_alone(self):
+        """What a scene whose grids run alone (:attr:`runs_alone`) draws with ``--particles 0``:
+        a :class:`~es2particles.render.field.Field`, say."""
+        raise NotImplementedError(f"scene {self.name!r} does not run without particles")
 
     def start(self, count, rng):
         """The starting state: quantity name -> (count, components) array or :class:`Fill`.

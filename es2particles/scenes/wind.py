@@ -212,6 +212,8 @@ class Wind(Scene):
     Params = WindParams
     render_reads = ("position", "life")
     saves = ("wind", "pressure", "divergence")  # kept in the plan and in --save-state
+    runs_alone = True  # --particles 0: the air alone, drawn as its speed
+    particle_params = ("relax", "lifetime")  # refused with --particles 0
     defaults = Defaults(particles=2 ** 20, point_size=1.0, steps=120, rounding="nearest")
 
     def __init__(self, params=None, **given):
@@ -223,7 +225,15 @@ class Wind(Scene):
         bw, bh = p.extent
         self.view = (0.0, 0.0, bw, bh)
 
-    def graph(self, caps=None):
+    def rendering_alone(self):
+        """With no particles, the air's speed at each pixel from 0 to --max-speed along the
+        gradient map, the obstacles over it."""
+        from ..render.field import Field
+
+        return Field("wind", self.view, self.params.max_speed, self.background())
+
+    def graph(self, caps=None, count=None):
+        """The fluid's passes, then the particles' (none where ``count`` is 0)."""
         from ..gl.context import Capabilities
 
         p = self.params
@@ -321,6 +331,8 @@ class Wind(Scene):
         face_passes("project", "{c}", reads_new=["{c}", "pressure"], uniforms={"u_cell": cell},
                     define="PROJECT")
         air_pass("centres", "wind", ["u", "v"], defines=("CENTRES",))
+        if count == 0:
+            return g
         # the particles: velocity, then position, then the life clock
         g.quantity("position", (0.0, 0.0), (bw, bh))
         g.quantity("velocity", -u, u)
@@ -386,6 +398,8 @@ class Wind(Scene):
 
     def start(self, count, rng):
         """Particles alive at free places, ages spread over their lifetimes; the air still."""
+        if not count:
+            return {}
         p = self.params
         bw, bh = p.extent
         h, w = self.solid.shape

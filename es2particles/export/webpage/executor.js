@@ -538,6 +538,25 @@
     },
   };
 
+  // The scene's push (the wind's air): while the button is down, the pointer's world point and
+  // its velocity over the last step (how far it moved since, over the step's dt) go to the
+  // passes at each step, as the grip's do; when it comes up the push stops (scenes/base.py: Push).
+  const push = plan.push && {
+    at: null, stepped: null,
+    beforeStep() {
+      const p = plan.push;
+      if (push.at === null) return;
+      live[p.velocity] = push.at.map((v, i) => (v - push.stepped[i]) / p.dt);
+      live[p.at] = [...push.at, p.radius, 1];
+      push.stepped = push.at.slice();
+    },
+    release() {
+      push.at = push.stepped = null;
+      live[plan.push.at] = [0, 0, 1, 0];
+      live[plan.push.velocity] = [0, 0];
+    },
+  };
+
   // The moving object's model matrix after `step` steps (frame/motion.py: Motion), column-major.
   function model(step) {
     const m = plan.motion;
@@ -722,6 +741,7 @@
 
   function step() {
     if (grip) grip.beforeStep();
+    if (push) push.beforeStep();
     for (const round of rounds) {
       for (let i = 0; i < round.count; i += 1) {
         for (const stage of round.stages) {
@@ -893,16 +913,26 @@
     controls.append(row);
     sliders.push({ control: c, slider, value });
   }
+  // A pointer's pixel in the picture (the canvas may be shown scaled).
+  const pixel = (e) => {
+    const box = canvas.getBoundingClientRect();
+    return [(e.clientX - box.left) * width / box.width,
+            (e.clientY - box.top) * height / box.height];
+  };
+  if (push) {
+    show("air", "drag to push it");
+    const world = (e) => {  // the world point under the pointer (rows from the top)
+      const [x, y] = pixel(e), [x0, y0, x1, y1] = plan.push.view;
+      return [x0 + (x + 0.5) / width * (x1 - x0), y1 - (y + 0.5) / height * (y1 - y0)];
+    };
+    canvas.addEventListener("mousedown", (e) => { push.at = push.stepped = world(e); });
+    window.addEventListener("mousemove", (e) => { if (push.at !== null) push.at = world(e); });
+    window.addEventListener("mouseup", () => { if (push.at !== null) push.release(); });
+  }
   if (camera) {
     show("camera", "drag to orbit, wheel to zoom");
     if (grip) show("sphere", "drag it over the floor");
     let dragging = null, held = null;
-    // A pointer's pixel in the picture (the canvas may be shown scaled).
-    const pixel = (e) => {
-      const box = canvas.getBoundingClientRect();
-      return [(e.clientX - box.left) * width / box.width,
-              (e.clientY - box.top) * height / box.height];
-    };
     canvas.addEventListener("mousedown", (e) => {
       dragging = [e.clientX, e.clientY];
       const [origin, direction] = camera.ray(...pixel(e));

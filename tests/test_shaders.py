@@ -96,7 +96,8 @@ def programs():
               "collision3d-moving": Collision3D(field_resolution=16,
                                                 spin=(90.0, 0.0, 1.0, 0.0)),
               "smoke": Smoke(), "smoke-tracers": Smoke(tau=0.0),
-              "smoke-plain": Smoke(shadows="off", sort="off"), "smoke-spread": Smoke(sort="7")}
+              "smoke-plain": Smoke(shadows="off", sort="off"), "smoke-spread": Smoke(sort="7"),
+              "wind": Wind(grid="16x16")}
     out = {}
     for fmt in FORMATS:
         for rounding in ROUNDINGS:

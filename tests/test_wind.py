@@ -359,7 +359,7 @@ def test_the_air_alone_is_drawn_as_its_speed(gl):
     speed = np.hypot(*(ndimage.map_coordinates(wind[..., k], [gy, gx], order=1, mode="nearest")
                        for k in (0, 1)))
     t = np.clip(speed / scene.params.max_speed, 0, 1) * 255
-    ramp = np.asarray(load_ramp("inferno"), float)[:, :3]
+    ramp = np.asarray(load_ramp(scene.defaults.gradient), float)[:, :3]
     i = np.minimum(np.floor(t).astype(int), 254)
     want = ramp[i] + (t - i)[..., None] * (ramp[i + 1] - ramp[i])
     cx, cy = np.meshgrid(x, y)
@@ -367,7 +367,60 @@ def test_the_air_alone_is_drawn_as_its_speed(gl):
     error = np.abs(picture - want)[clear]
     print(f"air alone: speeds up to {speed.max():.2f} m/s; picture vs float64 ramp: max "
           f"{error.max():.1f} codes, mean {error.mean():.2f}")
-    assert speed.max() > 1.0  # the air moves: the ramp is exercised, not only its black end
+    assert speed.max() > 1.0  # the air moves: the ramp is exercised, not only its slow end
     assert error.max() <= 1
     inside = np.hypot(cx - 0.5, cy - 0.5) < 0.15 - 2 / 32
     assert np.all(np.abs(picture[inside] - (46, 58, 84)) <= 1)  # the obstacle over it
+
+
+def test_particles_are_coloured_by_their_mean_speed(gl):
+    """The wind's particles as density points coloured by speed (render/points.py's hue): each
+    point adds its fade (1 - age / lifetime) into the density's first channel and its fade times
+    min(|velocity| / --max-speed, 1) into the second, against float64 binning of the stored
+    state (point size 1: pixel floor((p - view) / view size * size)); the picture is the
+    gradient map at their mean (second over first) times a brightness full from 4 times an even
+    spread's density, on the log curve below it, written in the test (bloom off)."""
+    from es2particles.render.ramps import load_ramp
+
+    scene = Wind(grid="32x32", obstacle="none")
+    size, n = (64, 48), 3000
+    rng = np.random.default_rng(77)
+    with Pipeline(gl, scene, particles=n, size=size, steps=0, bloom=None) as pipeline:
+        pipeline.begin(1)
+        sim = pipeline.sim
+        sim.upload("position", rng.uniform(0.01, 0.99, (n, 2)))
+        sim.upload("velocity", rng.uniform(-3.5, 3.5, (n, 2)))  # some beyond 4 m/s: clamped
+        lifetime = rng.uniform(2, 6, n)
+        sim.upload("life", np.stack([rng.uniform(0, 1, n) * lifetime, lifetime], 1))
+        p, v, life = (sim.download(q) for q in ("position", "velocity", "life"))
+        pipeline.render()
+        w, h = size
+        got = np.frombuffer(pipeline.executor.read("density"), np.float32)
+        got = got.reshape(h, w, 4)[..., :2].astype(np.float64)
+        picture = pipeline.image().astype(float)
+    fade = np.where((life[:, 0] >= 0) & (life[:, 0] < life[:, 1]), 1 - life[:, 0] / life[:, 1], 0)
+    hue = np.minimum(np.hypot(v[:, 0], v[:, 1]) / scene.params.max_speed, 1)
+    x = np.floor(p[:, 0] * w).astype(int)
+    y = np.floor(p[:, 1] * h).astype(int)
+    want = np.zeros((h, w, 2))
+    np.add.at(want, (y, x, 0), fade)
+    np.add.at(want, (y, x, 1), fade * hue)
+    # The point's fragment shader is mediump: a driver may keep half float's 11-bit significand
+    # (llvmpipe does, for the hue: measured up to 2^-10.4 of it), once in the hue and once in
+    # the product, each within 2^-11 of its value: a pixel's sums are within 2^-10 of its
+    # density, the sum of its points' fades.
+    error = np.abs(got - want)
+    share = (error / np.maximum(want[..., :1], 1e-3)).max()
+    print(f"density and speed sums: max |error| {error.max():.2e}, {share:.2e} of the pixel's "
+          f"density (bound {2 ** -10:.2e})")
+    assert np.all(error <= 2 ** -10 * want[..., :1] + 1e-7)
+    mean = np.divide(want[..., 1], want[..., 0], out=np.zeros((h, w)), where=want[..., 0] > 0)
+    even = n / (w * h)
+    bright = np.clip(np.log1p(4 * want[..., 0] / even) / np.log1p(4 * 4), 0, 1)
+    ramp = np.asarray(load_ramp(scene.defaults.gradient), float)[:, :3]
+    t = np.clip(mean, 0, 1) * 255
+    i = np.minimum(np.floor(t).astype(int), 254)
+    colour = bright[..., None] * (ramp[i] + (t - i)[..., None] * (ramp[i + 1] - ramp[i]))
+    off = np.abs(picture[::-1] - colour)  # the picture's rows from the top
+    print(f"picture against float64: max {off.max():.2f} codes, mean {off.mean():.3f}")
+    assert np.all(off <= 1.5)

@@ -99,7 +99,8 @@ def tone_map(ctx, run, total, particles):
     b.resource(Resource("density", "image", (w, h), "r32f", linear=True, data=density,
                         what="the shares' summed counts"))
     present = plan_post(b, "density", particles * intensity * accumulate / (w * h),
-                        settings.get("exposure", 4.0), settings.get("gradient", "inferno"),
+                        settings.get("exposure", 4.0),
+                        settings.get("gradient", run.scene_class().defaults.gradient),
                         settings.get("bloom", Bloom()), run.make_scene().rendering().background)
     with Executor(ctx, b.finish(present=present)) as executor:
         return read_rgb(ctx, executor.render())

@@ -194,13 +194,16 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
         entry["initial"] = {k: _flat(frame_value(spec, camera, 0, PAGE_CAPS, None, aspect))
                             for k, spec in stage.frame_uniforms.items()
                             if spec[0] in CAMERA_VALUES and camera is not None}
-        if stage.kind == "post" and stage.fragment == "post/tonemap.frag":
+        if stage.kind == "post" and stage.fragment == "post/tonemap.frag" \
+                and "HUE" not in stage.defines:  # a hue needs the float path's sums
             entry["program_counts"] = programs.of(stage, {"DENSITY_COUNTS": None})
         stages.append(entry)
     density = None
     if "points" in [s.kind for s in plan.stages]:
         points = plan.stage("points")
-        density = {"paths": list(DENSITY_PATHS), "fade_levels": FADE_LEVELS,
+        hue = "HUE" in points.defines  # the sums of a hue need blending in floats
+        density = {"paths": ["float"] if hue else list(DENSITY_PATHS), "hue": hue,
+                   "fade_levels": FADE_LEVELS,
                    "batch": BATCH_POINTS, "fade": "AGE_FADE" in points.defines,
                    "intensity": float(points.uniforms["u_colour"][0]),
                    "add": programs.add("density add", "lib/fullscreen.vert", "density/add.frag")}

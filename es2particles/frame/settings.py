@@ -25,6 +25,7 @@ class Defaults:
     point_size: float = 1.0
     steps: int = 1  # simulation steps before the first frame
     rounding: str = "nearest"
+    gradient: str = "inferno"  # the gradient map's ramp
 
 
 class _Default:
@@ -160,8 +161,8 @@ SETTINGS = {d.name: d for d in (
              help="density each particle adds: brightens the tone-mapped picture"),
     _setting("exposure", 4.0, 1e-3, 1e3, help="tone curve brightness"),
     _setting("gradient", "inferno", text=True, metavar="RAMP",
-             help="gradient map: a ramp name (inferno, ice, viridis, gold, grey), colours "
-                  "'#000,#f80,#fff', a PNG path, or 'none' (grey)"),
+             help="gradient map: a ramp name (inferno, ice, viridis, gold, grey, spectral), "
+                  "colours '#000,#f80,#fff', a PNG path, or 'none' (grey)"),
     _setting("accumulate", 1, 1, MAX_ACCUMULATE, integer=True,
              help="samples summed into each image: this step's density and the next K-1 "
                   "steps' (reseeded attractors shift their grid for each); 1/sqrt(K) the noise"),

@@ -40,10 +40,10 @@ def point_uniforms(view, point_size, size):
             "u_target_size": (float(size[0]), float(size[1]))}
 
 
-def choose_accumulation(caps):
-    """The first format a context of ``caps`` can blend into additively, and why it was
-    taken."""
-    for fmt in ACCUMULATION_FORMATS:
+def choose_accumulation(caps, channels=1):
+    """The first format of at least ``channels`` channels a context of ``caps`` can blend into
+    additively, and why it was taken."""
+    for fmt in ACCUMULATION_FORMATS[channels > 1:]:
         if caps.blendable.get(fmt):
             note = "" if fmt != "rgba8" else " (fallback: no float target can be blended into)"
             return fmt, f"{fmt}{note}"
@@ -57,6 +57,10 @@ class Density(Rendering):
     y1), then the post chain (tone map with the gradient map, bloom) over the ``background``
     image of the scene's objects, if any. ``reads``: ``position`` (2 components), and ``life``
     (age, lifetime) to fade each particle by 1 - age/lifetime and skip unborn and dead ones.
+    ``hue``: (quantity, top): each point also adds its quantity's magnitude over [0, top] into a
+    second channel, and the tone map colours a pixel by its points' mean of it along the gradient
+    map (their speed, say), its brightness still the density's; None: the density picks the
+    colour.
     ``draw_slice``: points per draw call, each followed by a flush; None:
     ``SOFTWARE_DRAW_SLICE`` on a CPU rasteriser, the whole count in one call otherwise.
 
@@ -68,6 +72,7 @@ class Density(Rendering):
     reads: tuple = ("position",)
     background: object = None
     draw_slice: int = None
+    hue: tuple = None
 
     settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate",
                 "vertex_fetch")
@@ -75,14 +80,24 @@ class Density(Rendering):
     kind = "it draws 2D density points"
 
     def __post_init__(self):
+        hue = ()
+        if self.hue is not None:
+            try:
+                name, top = self.hue
+                check_range("hue top", top, 1e-30)
+            except (TypeError, ValueError):
+                raise ParameterError(f"hue must be (quantity, top), got {self.hue!r}") from None
+            if not (isinstance(name, str) and name.isidentifier()):
+                raise ParameterError(f"hue must name a quantity, got {name!r}")
+            hue = (name,)
         unknown = [q for q in self.reads if q not in ("position", "life")]
         if "position" not in self.reads or unknown:
             raise ParameterError(f"the point renderer reads position and optionally life, got "
                                  f"{list(self.reads)}")
+        object.__setattr__(self, "reads", tuple(self.reads) + hue)
         x0, y0, x1, y1 = (float(v) for v in self.view)
         if not (x1 > x0 and y1 > y0):
             raise ParameterError(f"view must have x1 > x0 and y1 > y0, got {self.view}")
-        object.__setattr__(self, "reads", tuple(self.reads))
         if self.draw_slice is not None:
             check_range("draw_slice", self.draw_slice, 1, integer=True)
 
@@ -116,11 +131,15 @@ class Density(Rendering):
             "point_size", b.setting("point_size", defaults.point_size)), lo, hi)
         intensity = setting("intensity", b.setting("intensity", 1.0))
         b.accumulate = setting("accumulate", b.setting("accumulate", 1))
-        fmt, note = choose_accumulation(caps)
+        fmt, note = choose_accumulation(caps, 2 if self.hue else 1)
         # An 8-bit target saturates at 1: count in steps of 1/255 there.
         scale = 1.0 if fmt != "rgba8" else 1.0 / 255.0
         quantities = {q: b.graph_plan.quantities[q] for q in self.reads}
         own = point_uniforms(self.view, point_size, size)
+        defines = {"AGE_FADE": None} if "life" in quantities else {}
+        if self.hue:
+            own["u_hue_top"] = float(self.hue[1])
+            defines.update(HUE=None, HUE_READ=f"read_{self.hue[0]}")
         interface = stage_interface(tuple(quantities), quantities, b.format, own,
                                     attributes=not fetch)
         draw_slice = self.draw_slice
@@ -138,8 +157,7 @@ class Density(Rendering):
                    f"and uploaded as vertex attributes ({texels} texture read"
                    f"{'s' * (texels > 1)}, {format_bytes(texels * per * layout.count)} a frame)")
         b.stage(Stage(
-            "points", "points", "points.frag", "points.vert",
-            {"AGE_FADE": None} if "life" in quantities else {}, vertex_interface=interface,
+            "points", "points", "points.frag", "points.vert", defines, vertex_interface=interface,
             inputs=b.state_inputs(interface), attributes=b.state_attributes(interface),
             target=Ref("density"),
             vertices=b.particle_texels() if fetch else None,
@@ -149,10 +167,11 @@ class Density(Rendering):
             generated=generated_values(interface, layout), clear=(0.0, 0.0, 0.0, 0.0),
             slice=draw_slice, samples=b.accumulate,
             what=f"{layout.count} points of {point_size:g} pixel{'s' * (point_size != 1)}, "
-                 f"{how}"))
+                 f"{how}" + (f"; each adds |{self.hue[0]}| / {self.hue[1]:g} in a second "
+                             "channel: the colour" if self.hue else "")))
         # The tone map's reference: the density of an even spread at unit intensity, so that
         # --intensity brightens (relative to the density's own mean it cancelled out).
         mean = layout.count * scale / (w * h) * b.accumulate
         return plan_post(b, "density", mean, b.setting("exposure", 4.0),
-                         b.setting("gradient", "inferno"), b.setting("bloom", Bloom()),
-                         self.background)
+                         b.setting("gradient", defaults.gradient), b.setting("bloom", Bloom()),
+                         self.background, hue=self.hue[0] if self.hue else None)

@@ -70,18 +70,22 @@ def colouring(b, gradient, background, what="the scene's objects, under the part
 
 
 def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom(),
-              background=None):
+              background=None, hue=None):
     """Add the post chain to plan builder ``b``, reading the density in resource ``source``:
     the tone map (log curve relative to ``mean_density``, the density of an evenly covered
     pixel; with the gradient map where ``gradient`` is a ramp, grey where None; over the
     ``background`` image of the scene's objects where one is given), then bloom's bright, blur x
     and blur y at 1/2 and 1/4 size and its composite (where ``bloom`` is not None). Returns the
-    name of the last stage's target: the picture."""
+    name of the last stage's target: the picture. ``hue``: the quantity whose mean over a
+    pixel's points (the density's second channel over its first) picks the colour along the
+    gradient map, the log curve its brightness (None: the curve picks the colour)."""
     exposure = setting("exposure", exposure)
     w, h = b.resources[source].size
     defines, inputs = colouring(b, gradient, background)
     inputs["u_density"] = Ref(source)
     ramp = "GRADIENT" in defines
+    if hue is not None:
+        defines["HUE"] = None
 
     def stage(name, frag, size, uniforms, inputs, defines=None, what=""):
         b.resource(Resource(name, "target", size, "rgba8", linear=True))
@@ -90,6 +94,8 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom
         return name
 
     ramp_words = f"gradient map {gradient!r}" if ramp else "grey"
+    if hue is not None and ramp:
+        ramp_words += f" by the points' mean |{hue}|"
     last = stage("tone map", "post/tonemap.frag", (w, h),
                  {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure}, inputs,
                  defines, f"log curve, exposure {exposure:g}, {ramp_words}"

@@ -14,6 +14,10 @@ BUILTIN = {
     "viridis": ["#000000", "#440154", "#3b528b", "#21918c", "#5ec962", "#fde725"],
     "gold": ["#000000", "#2a1600", "#7a4a00", "#d89a1c", "#ffe08a", "#ffffff"],
     "grey": ["#000000", "#ffffff"],
+    # Hues from slow to fast for colouring by speed, each about as bright (ColorBrewer's
+    # Spectral, reversed, as mapbox/webgl-wind colours its wind): brightness stays the density's.
+    "spectral": ["#3288bd", "#66c2a5", "#abdda4", "#e6f598", "#fee08b", "#fdae61", "#f46d43",
+                 "#d53e4f"],
 }
 
 

@@ -214,7 +214,8 @@ class Wind(Scene):
     saves = ("wind", "pressure", "divergence")  # kept in the plan and in --save-state
     runs_alone = True  # --particles 0: the air alone, drawn as its speed
     particle_params = ("relax", "lifetime")  # refused with --particles 0
-    defaults = Defaults(particles=2 ** 20, point_size=1.0, steps=120, rounding="nearest")
+    defaults = Defaults(particles=2 ** 20, point_size=1.0, steps=120, rounding="nearest",
+                        gradient="spectral")
 
     def __init__(self, params=None, **given):
         super().__init__(params, **given)
@@ -224,6 +225,14 @@ class Wind(Scene):
             raise ParameterError("--obstacle fills the whole box: there is no air")
         bw, bh = p.extent
         self.view = (0.0, 0.0, bw, bh)
+
+    def rendering(self):
+        """The particles as density points, each coloured by its speed over [0, --max-speed]
+        along the gradient map (a pixel the mean of its particles'), fading with age."""
+        from ..render.points import Density
+
+        return Density(self.view, self.render_reads, self.background(),
+                       hue=("velocity", self.params.max_speed))
 
     def rendering_alone(self):
         """With no particles, the air's speed at each pixel from 0 to --max-speed along the

@@ -9,6 +9,10 @@ attribute vec2 a_texel;
 #include "lib/life.glsl"
 varying float v_fade;
 #endif
+#ifdef HUE
+// HUE_READ reads the quantity whose magnitude over [0, u_hue_top] colours the point.
+varying float v_hue;
+#endif
 
 void main()
 {
@@ -22,6 +26,9 @@ void main()
     vec2 corner = floor(pixel - 0.5 * u_point_size + 0.5);
     gl_Position = vec4((corner + 0.5 * u_point_size) / u_target_size * 2.0 - 1.0, 0.0, 1.0);
     gl_PointSize = u_point_size;
+#ifdef HUE
+    v_hue = clamp(length(HUE_READ(a_texel)) / u_hue_top, 0.0, 1.0);
+#endif
 #ifdef AGE_FADE
     // life = (age, lifetime): fade out as the particle gets older; unborn (age < 0) and dead
     // (age >= lifetime) ones are moved outside the clip volume, so they are never drawn.

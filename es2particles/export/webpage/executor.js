@@ -177,6 +177,10 @@
       fail(`density=${asked}: the paths are ${plan.density.paths.join(", ")}`);
     }
     path = (asked !== null ? [asked] : plan.density.paths).find((name) => offers[name]());
+    if (path === undefined && plan.density.hue) {
+      fail("colour by a quantity (the wind's speed): the page sums it in an RGBA32F target, " +
+           "which this context cannot blend into (WEBGL_color_buffer_float, EXT_float_blend)");
+    }
     if (path === undefined) fail(`density=${asked}: this context does not offer it`);
     show("density", HOW[path] + (asked !== null ? " (asked for)" : ""));
   }

@@ -5,6 +5,9 @@
 // maps t to a colour (GRADIENT) or grey.
 // DENSITY_COUNTS: the density is a whole count in three bytes of an RGBA8 texture (a WebGL page
 // with no blendable float target: density/add.frag), each count worth u_unit.
+// HUE: the density's second channel holds its points' sum of a quantity's share (points.frag):
+// the ramp colours a pixel by their mean, second over first, at a brightness that is full from
+// HUE_HEADROOM times an even spread's density (u_mean) up and falls on a log curve below it.
 precision highp float;
 precision highp sampler2D;
 
@@ -25,6 +28,7 @@ uniform float u_unit;
 #endif
 
 const float HEADROOM = 256.0;
+const float HUE_HEADROOM = 4.0;
 
 float density_at(vec2 uv)
 {
@@ -40,7 +44,14 @@ void main()
     float d = density_at(v_uv);
     float t = log(1.0 + u_exposure * d / u_mean) / log(1.0 + u_exposure * HEADROOM);
     t = clamp(t, 0.0, 1.0);
-#ifdef GRADIENT
+#if defined(GRADIENT) && defined(HUE) && !defined(DENSITY_COUNTS)
+    vec2 sums = texture2D(u_density, v_uv).rg;
+    float mean = clamp(sums.g / max(sums.r, 1e-30), 0.0, 1.0);
+    // full colour from HUE_HEADROOM times an even spread's density up: the hue is the picture
+    float bright = clamp(log(1.0 + u_exposure * d / u_mean)
+                         / log(1.0 + u_exposure * HUE_HEADROOM), 0.0, 1.0);
+    vec3 colour = bright * texture2D(u_ramp, vec2(mean * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
+#elif defined(GRADIENT)
     vec3 colour = texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
 #else
     vec3 colour = vec3(t);

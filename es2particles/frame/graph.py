@@ -283,7 +283,7 @@ class PassGraph:
         return self.grids[name]
 
     def quantity(self, name, lo, hi, components=None, storage=None, domain=None, bits=16,
-                 sampling="hand"):
+                 sampling="hand", clamps="both"):
         """Declare a quantity of 1 to 4 components with world range [lo, hi] (numbers, or one
         per component; ``components`` defaults to their length, else 2); ``storage`` pins its
         format (see :class:`~es2particles.frame.state.Quantity`); ``domain``: the grid it lives
@@ -291,7 +291,9 @@ class PassGraph:
         precision in every format (32-bit packed where the simulation's holds less);
         ``sampling="hardware"``: a grid quantity's ``sample_q`` filtered by the hardware where
         it is stored as floats the context filters (see
-        :class:`~es2particles.frame.state.Quantity`); returns it."""
+        :class:`~es2particles.frame.state.Quantity`); ``clamps``: the edges of the range where a
+        value means a clamped write (``"both"``; ``"lo"``, ``"hi"``, or ``"none"`` where an edge
+        is a value the physics holds: a wall, a unit vector, a density's 0); returns it."""
         if name in self.quantities:
             raise GraphError(f"quantity {name!r} is declared twice")
         if isinstance(domain, str):
@@ -303,7 +305,7 @@ class PassGraph:
             raise GraphError(f"quantity {name!r}: its domain must be a grid this graph declares "
                              "(PassGraph.grid)")
         self.quantities[name] = Quantity(name, lo, hi, components, storage, domain, bits,
-                                         sampling)
+                                         sampling, clamps)
         return self.quantities[name]
 
     def neighbours(self, name, of, cell, box=None, bound=64, this_step=False):

@@ -27,6 +27,7 @@ FORMATS = ("rgba8", "rgba16f", "rgba32f")  # a simulation's
 STORAGE = FORMATS + ("rgba8_32",)  # a quantity's: the simulation's, or 32-bit packed RGBA8
 BITS = (16, 32)
 SAMPLING = ("hand", "hardware")
+CLAMPS = ("both", "lo", "hi", "none")  # which edges of a range mean a clamped write
 AXES = "xyzw"
 
 
@@ -185,7 +186,11 @@ class Quantity:
     how ``sample_q`` interpolates: ``"hand"`` from decoded cells, exact to float32 in every
     format; ``"hardware"``, one LINEAR-filtered fetch a slice where it is stored as floats and
     the context filters them (by hand otherwise), faster, its weights at the hardware's
-    sub-texel precision (8 bits on many GPUs: 2^-9 of a cell-to-cell difference).
+    sub-texel precision (8 bits on many GPUs: 2^-9 of a cell-to-cell difference). ``clamps``:
+    which edges of the range mean that a value written beyond was clamped there, for the report
+    at a run's end: ``"both"`` (the default), ``"lo"`` or ``"hi"`` where the other edge is a
+    value the physics holds (a density's 0), ``"none"`` where both are (walls, a unit vector,
+    a map bounded by its range).
     """
 
     name: str
@@ -196,6 +201,7 @@ class Quantity:
     domain: Grid = None  # the grid it lives on; None: the particles
     bits: int = 16  # 32: at least float32's precision in every simulation (see format_in)
     sampling: str = "hand"  # a grid quantity's samples: "hand" or "hardware" (filtered LINEAR)
+    clamps: str = "both"  # the edges where a value means a clamped write (see CLAMPS)
 
     def __post_init__(self):
         if not (isinstance(self.name, str) and self.name.isidentifier()):
@@ -229,6 +235,9 @@ class Quantity:
         if self.bits not in BITS:
             raise ParameterError(f"quantity {self.name!r}: bits must be 16 or 32, got "
                                  f"{self.bits!r}")
+        if self.clamps not in CLAMPS:
+            raise ParameterError(f"quantity {self.name!r}: clamps must be one of "
+                                 f"{', '.join(CLAMPS)}, got {self.clamps!r}")
         if self.sampling not in SAMPLING:
             raise ParameterError(f"quantity {self.name!r}: sampling must be 'hand' or "
                                  f"'hardware', got {self.sampling!r}")
@@ -458,6 +467,27 @@ class StateBuffer(Textures):
         q = self.quantity
         return packing.state_decode(self.read_texels(), q.lo32, q.span32,
                                     self.fmt).astype(np.float64)
+
+
+PACKED_TOP = 254 * 257  # both bytes 254: the top code 65024 (255 H + L), whatever the order
+
+
+def edge_counts(quantity, texels, fmt):
+    """(on lo, on hi), per component: how many of ``texels`` (n, parts, 4), stored in ``fmt``
+    (the quantity's storage), hold a value on each edge of the quantity's range, counted on the
+    codes: a 16-bit code 0 or 65024, a 32-bit value's first code so (its second 0 at lo), a
+    float at or beyond lo or lo + span (float32, as a decode gives them)."""
+    q, c = quantity, quantity.components
+    texels = np.ascontiguousarray(texels)
+    if fmt == "rgba8":
+        codes = texels.view(np.uint16).reshape(len(texels), -1)[:, :c]
+        return ((codes == 0).sum(axis=0), (codes == PACKED_TOP).sum(axis=0))
+    if fmt == "rgba8_32":
+        pairs = texels.view(np.uint16).reshape(len(texels), -1, 2)[:, :c]
+        return (((pairs[..., 0] == 0) & (pairs[..., 1] == 0)).sum(axis=0),
+                (pairs[..., 0] == PACKED_TOP).sum(axis=0))
+    values = texels[:, 0, :c].astype(np.float32)
+    return ((values <= q.lo32).sum(axis=0), (values >= q.lo32 + q.span32).sum(axis=0))
 
 
 def zero_texels(quantity, fmt):

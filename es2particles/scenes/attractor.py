@@ -127,7 +127,9 @@ class Attractor(Scene):
     def graph(self):
         x0, y0, x1, y1 = self.range
         g = PassGraph()
-        g.quantity("position", (x0, y0), (x1, y1), bits=16 if self.reseed else self.state_bits)
+        # the range holds the map's image: a value on its edge is the map's, never a clamp
+        g.quantity("position", (x0, y0), (x1, y1), bits=16 if self.reseed else self.state_bits,
+                   clamps="none")
         defines = {"ITERATIONS": self.iterations}
         if self.reseed:
             defines["RESEED"] = None

@@ -79,6 +79,30 @@ class Fill:
     hi: object
 
 
+def clamp_report(sim, skip=(), hints=None):
+    """One line per quantity of ``sim`` (but ``skip``) with values on an edge of its range that
+    means a clamped write (its ``clamps``): its share of them, per component, with the range and
+    ``hints[quantity]`` (how to widen it), if any. Counted on the stored codes at a run's end."""
+    lines = []
+    for name, buffer in sim.buffers.items():
+        q = buffer.quantity
+        if name in skip or q.clamps == "none":
+            continue
+        counts = sim.clamped_writes(name)
+        if not any(counts):
+            continue
+        n = q.domain.cells if q.domain is not None else sim.count
+        axes = "xyzw" if q.components > 1 else " "
+        shares = ", ".join(f"{axes[k].strip() + ' ' if q.components > 1 else ''}"
+                           f"{100 * c / n:.3g}%" for k, c in enumerate(counts) if c)
+        ranges = ", ".join(f"[{lo:g}, {hi:g}]"
+                           for lo, hi in dict.fromkeys(zip(q.lo, q.hi)))
+        hint = (hints or {}).get(name)
+        lines.append(f"{name}: {shares} of its values sit on its range's edge ({ranges}): "
+                     f"written beyond it and clamped" + (f"; {hint}" if hint else ""))
+    return lines
+
+
 class Scene:
     """Base of the scenes. Subclasses set the class attributes and override the declarations.
 
@@ -223,9 +247,9 @@ class Scene:
         return {}
 
     def after_run(self, sim):
-        """Lines a run says once, at its end, of what its state shows (values held at a range's
-        edge, say); none by default."""
-        return []
+        """Lines a run says once, at its end, of what its state shows: by default, each quantity
+        with values clamped at its range's edge (:func:`clamp_report`)."""
+        return clamp_report(sim)
 
     def measured(self, ctx):
         """Lines the printed plan measures on the context (slow figures), after describe()."""

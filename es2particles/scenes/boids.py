@@ -92,7 +92,7 @@ class Boids(Scene):
                 "velocity": np.stack([np.cos(angle), np.sin(angle)], 1) * speed[:, None]}
 
     def after_run(self, sim):
-        return [f"order parameter |mean unit velocity|: {order_parameter(sim.download('velocity')):.3f} "
+        return super().after_run(sim) + [f"order parameter |mean unit velocity|: {order_parameter(sim.download('velocity')):.3f} "
                 f"after {sim.steps_done} steps (0: random headings, 1: one heading)"]
 
 

@@ -197,7 +197,7 @@ class Collision(Scene):
     def graph(self):
         p = self.params
         g = PassGraph()
-        g.quantity("position", RECT[:2], RECT[2:])
+        g.quantity("position", RECT[:2], RECT[2:], clamps="none")  # the walls are its edges
         g.quantity("velocity", -p.max_speed, p.max_speed)
         g.quantity("life", *life_range(p.dt), storage="rgba8")
         g.texture("field", self.field.texels())

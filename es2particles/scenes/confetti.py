@@ -69,7 +69,8 @@ class Confetti(Collision3D):
 
     def declare(self, g, caps):
         super().declare(g, caps)
-        g.quantity("normal", -1.0, 1.0)  # octahedral: two numbers in [-1, 1]
+        # octahedral: two numbers in [-1, 1], on its edges wherever a normal is on an axis
+        g.quantity("normal", -1.0, 1.0, clamps="none")
 
     def uniforms(self, caps):
         return {**super().uniforms(caps), "u_tumble": float(np.radians(self.params.tumble))}

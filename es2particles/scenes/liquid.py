@@ -116,14 +116,14 @@ class Liquid(Scene):
                                  "--box: nothing would hold the liquid together; raise --radius "
                                  "or --particles")
         g = PassGraph()
-        g.quantity("position", (0.0, 0.0), (w, hb))
+        g.quantity("position", (0.0, 0.0), (w, hb), clamps="none")  # the walls are its edges
         g.quantity("velocity", -top, top)
         # Predictions may leave the box (the walls act after the relaxation, and the velocity
         # follows from the change): a range symmetric about 0 holds the floor exactly.
         g.quantity("predicted", (-2 * w, -2 * hb), (2 * w, 2 * hb))
         # density, near density: 64 is ~13 rho0 at the default, a liquid crushed flat (clamped
         # beyond, said at the end of a run); the codes are 0.001 apart
-        g.quantity("rho", 0.0, 64.0, components=2)
+        g.quantity("rho", 0.0, 64.0, components=2, clamps="hi")  # a lone particle's near is 0
         g.neighbours("here", "position", cell=h, bound=p.bound)
         g.neighbours("ahead", "predicted", cell=h, box=((0.0, 0.0), (w, hb)), bound=p.bound,
                      this_step=True)

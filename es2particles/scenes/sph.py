@@ -112,7 +112,7 @@ class Sph(Scene):
         (w, hb), h, c0 = p.box, p.h, p.sound
         top = 2.0 * math.sqrt(2.0 * G * hb) + c0 * 0.1  # a fall from the box's top, and more
         g = PassGraph()
-        g.quantity("position", (0.0, 0.0), (w, hb))
+        g.quantity("position", (0.0, 0.0), (w, hb), clamps="none")  # the walls are its edges
         g.quantity("velocity", -top, top)
         g.quantity("rho", 0.0, 2.0 * RHO0, components=1)  # kg/m^3
         g.neighbours("water", "position", cell=2.0 * h, bound=p.bound)

@@ -25,7 +25,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..twins.life import life_range, longest_life
-from .base import Push, Scene
+from .base import Push, Scene, clamp_report
 
 WALL_KINDS = {"slip": 0.0, "noslip": 1.0, "open": 2.0}  # a number: a moving no-slip wall (3)
 SIDES = ("left", "right", "bottom", "top")
@@ -365,13 +365,13 @@ class Wind(Scene):
         """The faces whose wind sits at the range's edge (+-max speed: clamped on write), if
         any, said once."""
         u = self.params.max_speed
-        at_edge = sum(int(np.count_nonzero(np.abs(sim.download(q)) >= u * (1 - 2 / 65024)))
-                      for q in ("u", "v"))
-        if not at_edge:
-            return []
-        faces = sum(np.prod(sim.buffers[q].quantity.domain.shape) for q in ("u", "v"))
-        return [f"{at_edge} of {faces} faces' wind is at +-{u:g} m/s, the range's edge: faster "
-                "air was clamped on write; raise --max-speed"]
+        faces = sum(sim.buffers[q].quantity.domain.cells for q in ("u", "v"))
+        at_edge = sum(sum(sim.clamped_writes(q)) for q in ("u", "v"))
+        lines = [f"{at_edge} of {faces} faces' wind is at +-{u:g} m/s, the range's edge: faster "
+                 "air was clamped on write; raise --max-speed"] if at_edge else []
+        # the faces' line stands for the air (its centres follow from the faces)
+        return lines + clamp_report(sim, skip=("u", "v", "wind"),
+                                    hints={"velocity": "raise --max-speed"})
 
     def push(self):
         """A drag pulls the air within a tenth of the box's height toward the pointer's

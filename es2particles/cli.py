@@ -151,6 +151,26 @@ def _import_held():
 
 
 MAX_IMAGE_FRAMES = 900  # WebP/GIF/APNG: each spilled frame is an open file while pillow encodes
+# A run says each long phase as it starts where it has this many particles or has already taken
+# this long (a 4M-particle smoke drew its frame in silence for 21 s after its warm-up's progress).
+LONG_RUN_PARTICLES = 2 ** 22
+LONG_RUN_SECONDS = 5.0
+
+
+class _Phases:
+    """Says each phase of a long run as it starts, on one line of stderr: a run of at least
+    LONG_RUN_PARTICLES particles, or one that has taken LONG_RUN_SECONDS already. The warm-up
+    and an animation's frames have their own progress."""
+
+    def __init__(self, start, particles):
+        self.start, self.particles = start, particles
+
+    def __call__(self, what):
+        import time
+
+        elapsed = time.perf_counter() - self.start
+        if (self.particles or 0) >= LONG_RUN_PARTICLES or elapsed > LONG_RUN_SECONDS:
+            print(f"es2particles: {what} ({elapsed:.1f} s in)", file=sys.stderr, flush=True)
 
 
 def _warm_up(pipeline):
@@ -699,14 +719,25 @@ def _run(args):
             density = ""
         else:
             animation = (frames, out.suffix.lower()) if frames > 1 else None
+            particles = run.settings.get("particles", scene.defaults.particles)
+            phase = _Phases(start, particles if isinstance(particles, int) else None)
+            phase("compiling the passes" + (f" and setting out {particles} particles"
+                                            if particles else ""))
             scene, pipeline = run.pipeline(ctx, scene, animation=animation)
             with pipeline:
                 _note_sparse(pipeline)
                 if load_path is not None:
+                    phase(f"loading {load_path}")
                     pipeline.load_state(load_path)
-                drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=_warm_up)
+
+                def warm_up(pipeline):
+                    _warm_up(pipeline)
+                    if frames == 1:
+                        phase("drawing the picture")
+                drawn = pipeline.frames(frames, run.steps_per_frame, warm_up=warm_up)
                 if frames == 1:
                     next(drawn)
+                    phase(f"writing {out}")
                     save_image(pipeline.image(), out)
                 else:
                     with AnimationWriter(out, run.fps) as writer:  # frames stream out: bounded
@@ -717,6 +748,7 @@ def _run(args):
                                   file=sys.stderr)
                         writer.close()
                 if state_path is not None:
+                    phase(f"saving the state to {state_path}")
                     pipeline.save_state(state_path)
                 if config_path is not None:
                     write_run(run, scene, config_path)

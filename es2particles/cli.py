@@ -236,11 +236,15 @@ def _warnings_as_lines():
 
 
 def _in_finalizer(frame):
-    """Whether ``frame`` runs inside an object's finalizer (``__del__``, a weakref.finalize)."""
+    """Whether ``frame`` runs where an exception would be swallowed or leave things half made:
+    inside an object's finalizer (``__del__``, a weakref.finalize) or the import machinery
+    (importlib's frozen bootstrap, whose module-lock callback printed "Exception ignored in
+    _get_module_lock ... KeyboardInterrupt" and let a run go on to exit 0)."""
     while frame is not None:
         code = frame.f_code
         if code.co_name == "__del__" or (code.co_name == "__call__"
-                                         and code.co_filename.endswith("weakref.py")):
+                                         and code.co_filename.endswith("weakref.py")) \
+                or code.co_filename.startswith("<frozen importlib._bootstrap"):
             return True
         frame = frame.f_back
     return False
@@ -250,8 +254,8 @@ def _terminate_as_interrupt():
     """SIGTERM unwinds like Ctrl-C while the command runs, so partly written files are removed
     (an animation's hidden .part file stayed behind after a kill); returns what restores the
     previous handlers. A signal landing inside a finalizer (a GL object's ``__del__`` in a
-    collection) is delivered a few milliseconds later, once out of it: an exception raised there
-    is printed and swallowed, and a run went on to exit 0 under a traceback."""
+    collection) or an import is delivered a few milliseconds later, once out of it: an exception
+    raised there is printed and swallowed, and a run went on to exit 0 under a traceback."""
     import signal
     import threading
 

@@ -657,3 +657,36 @@ def test_a_context_used_from_another_thread_says_so(gl):
         thread.join()
         assert said and "opened on another thread" in said[0], said
         pipeline.step()  # the thread that made it goes on
+
+
+def test_an_interrupt_inside_an_import_lands_once_the_import_is_done(tmp_path, monkeypatch):
+    """A SIGINT that arrived while a module was importing (a lazy import in the middle of a run)
+    was raised inside importlib's module-lock callback, printed as "Exception ignored in
+    _get_module_lock", and the run went on to exit 0. The command's handler holds a signal that
+    lands in the import machinery (or a finalizer) and raises it a few milliseconds after: the
+    import completes, then the interrupt arrives where it can unwind the run."""
+    import signal
+    import sys
+    import time
+
+    from es2particles.cli import _in_finalizer, _terminate_as_interrupt
+
+    (tmp_path / "slow_probe.py").write_text(
+        "import os, signal, sys, time\n"
+        "FRAME = sys._getframe()\n"
+        "os.kill(os.getpid(), signal.SIGINT)\n"
+        "time.sleep(0.05)  # the signal lands here, inside the import\n"
+        "DONE = True\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert not _in_finalizer(sys._getframe())
+    restore = _terminate_as_interrupt()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            import slow_probe  # noqa: F401
+            time.sleep(2)  # the held interrupt lands here
+    finally:
+        restore()
+        signal.setitimer(signal.ITIMER_REAL, 0)
+    probe = sys.modules.pop("slow_probe")
+    assert probe.DONE  # the import ran to its end
+    assert _in_finalizer(probe.FRAME)  # a module's own code runs under importlib's frames

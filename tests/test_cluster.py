@@ -297,6 +297,30 @@ def test_a_cluster_with_no_worker_ends_the_run_in_one_line(bare_scheduler, tmp_p
         assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
+def test_an_interrupt_under_a_cluster_says_which_frames_are_kept(bare_scheduler, tmp_path):
+    """Issue 44, item 6: Ctrl-C while an animation's frames are made on a cluster keeps the
+    frames folder for the same command to resume, and says so: how many frames and where, then
+    the one line of any interrupt, exit 130, and no output file."""
+    out = tmp_path / "x.gif"
+    run = subprocess.Popen([sys.executable, "-m", "es2particles", *ANIMATION, "--scheduler",
+                            bare_scheduler.scheduler_address, "--worker-timeout", "60",
+                            "--out", str(out)], stdout=subprocess.DEVNULL,
+                           stderr=subprocess.PIPE, text=True)
+    manifest = tmp_path / "x.gif.frames" / "manifest.json"
+    deadline = time.monotonic() + 60
+    while not manifest.exists() and run.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)  # waiting for a worker now
+    run.send_signal(signal.SIGINT)
+    err = run.communicate(timeout=60)[1]
+    assert run.returncode == 130, (run.returncode, err)
+    assert err.splitlines()[-2:] == [
+        f"es2particles: 0 of 5 frames are kept in {out}.frames: the same command again makes "
+        "only the others", "es2particles: interrupted"], err
+    assert not out.exists() and manifest.exists()
+
+
 @contextmanager
 def dask_worker(address, folder):
     """A real worker process, as the docs start one (`dask worker ADDRESS --nthreads 1`), with

@@ -232,6 +232,7 @@ def test_a_signal_inside_a_finalizer_interrupts_once_out_of_it():
         restore()
 
 
+@pytest.mark.gl
 def test_a_long_run_says_each_phase_as_it_starts(tmp_path, capsys, monkeypatch):
     """Issue 44: a 16M-particle run was silent for minutes outside its warm-up. A run of at
     least LONG_RUN_PARTICLES particles (lowered here to 1024) says each long phase on one line

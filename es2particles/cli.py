@@ -7,6 +7,7 @@ exit status 2, not as a traceback.
 import argparse
 import re
 import sys
+from contextlib import contextmanager
 
 from .errors import Es2ParticlesError
 
@@ -151,26 +152,46 @@ def _import_held():
 
 
 MAX_IMAGE_FRAMES = 900  # WebP/GIF/APNG: each spilled frame is an open file while pillow encodes
-# A run says each long phase as it starts where it has this many particles or has already taken
-# this long (a 4M-particle smoke drew its frame in silence for 21 s after its warm-up's progress).
-LONG_RUN_PARTICLES = 2 ** 22
-LONG_RUN_SECONDS = 5.0
+# A phase of a run still going this long is said (a 4M-particle smoke drew its frame in silence
+# for 21 s after its warm-up's progress).
+LONG_PHASE_SECONDS = 2.0
 
 
 class _Phases:
-    """Says each phase of a long run as it starts, on one line of stderr: a run of at least
-    LONG_RUN_PARTICLES particles, or one that has taken LONG_RUN_SECONDS already. The warm-up
-    and an animation's frames have their own progress."""
+    """Says the phase a run is in, on one line of stderr, once it has gone on for
+    LONG_PHASE_SECONDS: from a timer, so a phase that ends sooner (or fails, with its own one
+    line) says nothing. The warm-up and an animation's frames have their own progress."""
 
-    def __init__(self, start, particles):
-        self.start, self.particles = start, particles
+    def __init__(self, start):
+        self.start, self.timer = start, None
 
     def __call__(self, what):
+        """Begin phase ``what``, ending the one before; None ends it."""
+        import threading
         import time
 
-        elapsed = time.perf_counter() - self.start
-        if (self.particles or 0) >= LONG_RUN_PARTICLES or elapsed > LONG_RUN_SECONDS:
-            print(f"es2particles: {what} ({elapsed:.1f} s in)", file=sys.stderr, flush=True)
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        if what is None:
+            return
+
+        def say():
+            print(f"es2particles: {what} ({time.perf_counter() - self.start:.1f} s into the run)",
+                  file=sys.stderr, flush=True)
+        self.timer = threading.Timer(LONG_PHASE_SECONDS, say)
+        self.timer.daemon = True
+        self.timer.start()
+
+
+@contextmanager
+def _ending(phase):
+    """Ends ``phase``'s timer however the block ends (a timer left running would speak after
+    the command, or, in a caller's process, in the middle of its next)."""
+    try:
+        yield
+    finally:
+        phase(None)
 
 
 def _warm_up(pipeline):
@@ -724,17 +745,21 @@ def _run(args):
         else:
             animation = (frames, out.suffix.lower()) if frames > 1 else None
             particles = run.settings.get("particles", scene.defaults.particles)
-            phase = _Phases(start, particles if isinstance(particles, int) else None)
+            phase = _Phases(start)
             phase("compiling the passes" + (f" and setting out {particles} particles"
                                             if particles else ""))
-            scene, pipeline = run.pipeline(ctx, scene, animation=animation)
-            with pipeline:
+            try:
+                scene, pipeline = run.pipeline(ctx, scene, animation=animation)
+            finally:
+                phase(None)
+            with pipeline, _ending(phase):
                 _note_sparse(pipeline)
                 if load_path is not None:
                     phase(f"loading {load_path}")
                     pipeline.load_state(load_path)
 
                 def warm_up(pipeline):
+                    phase(None)  # the warm-up shows its own progress
                     _warm_up(pipeline)
                     if frames == 1:
                         phase("drawing the picture")
@@ -743,6 +768,7 @@ def _run(args):
                     next(drawn)
                     phase(f"writing {out}")
                     save_image(pipeline.image(), out)
+                    phase(None)
                 else:
                     with AnimationWriter(out, run.fps) as writer:  # frames stream out: bounded
                         for _ in progress(drawn, frames, "frames"):
@@ -754,6 +780,7 @@ def _run(args):
                 if state_path is not None:
                     phase(f"saving the state to {state_path}")
                     pipeline.save_state(state_path)
+                    phase(None)
                 if config_path is not None:
                     write_run(run, scene, config_path)
                 for line in scene.after_run(pipeline.sim):  # once a run: what it saw

@@ -29,7 +29,9 @@ sys.path.insert(0, str(ROOT))
 import numpy as np  # noqa: E402
 from es2particles import open_context  # noqa: E402
 from es2particles.errors import Es2ParticlesError  # noqa: E402
+from es2particles.frame.graph import scene_graph  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
+from es2particles.frame.settings import DEFAULT  # noqa: E402
 from es2particles.report.measure import median_time  # noqa: E402
 from es2particles.scenes import BUILT_IN, scene_class  # noqa: E402
 
@@ -92,6 +94,11 @@ def frame_seconds(ctx, scene, particles, size, repeats, steps=1, **settings):
             pipeline.step(steps)
             pipeline.render()
         return median_time(frame, ctx.finish, repeats)
+
+
+def keeps_state(scene):
+    """Whether ``scene`` keeps particles or grids (the noise flame keeps neither)."""
+    return bool(scene.rendering().reads or scene_graph(scene, None).quantities)
 
 
 def step_seconds(ctx, scene, particles, size, repeats):
@@ -224,14 +231,20 @@ def main(argv=None):
             results.note(f"the fragment stage runs the de Jong map at {frag / comp:.1%} of the "
                          "compute rate on this card (es2particles uses only fragment passes, "
                          "the ES 2.0 model)")
-        for name in BUILT_IN:
-            cls = scene_class(name)
-            scene = cls()
+        scenes = [(name, scene_class(name), {}) for name in BUILT_IN]
+        scenes.append(("flame from smoke", scene_class("flame"), {"source": "smoke"}))
+        for name, cls, params in scenes:
+            scene = cls(**params)
+            if not keeps_state(scene):  # the noise flame: a frame has no count to vary
+                seconds = frame_seconds(ctx, scene, DEFAULT, size, repeats)
+                results.add(f"{name} frame", seconds * 1e3, "ms a frame",
+                            "no particles or grid (its field is computed in the march)")
+                continue
             defaults = min(scene.defaults.particles, huge if not dry else big)
             for count, label in ((defaults, "defaults"), (big, log2(big))):
                 start = time.perf_counter()
                 try:
-                    seconds = frame_seconds(ctx, cls(), count, size, repeats)
+                    seconds = frame_seconds(ctx, cls(**params), count, size, repeats)
                 except Es2ParticlesError as refused:  # sph's count follows its spacing; a
                     results.note(f"{name} at {label}: {refused}")  # grid's keys bound cells
                     continue

@@ -82,9 +82,12 @@ def _rgba8(pipeline, name):
 @pytest.mark.parametrize("steps, jitter", [(1, "off"), (7, "on")])
 def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
     """Density rho in every cell: along a chord c, L = (E / K) B (1 - exp(-K rho c)) + background
-    exp(-K rho c) and the picture 1 - exp(-L), exact at any step count. Within the ramp's and
-    the output's rounding (half a code each, the ramp's carried through the curve): a half-code
-    bias fails."""
+    exp(-K rho c) and the picture 1 - exp(-L), exact at any step count. Within the ramp's
+    rounding (half a code, carried through the curve) and the output's conversion: 0.6 of a code,
+    Direct3D's tolerance for float to 8-bit (D3D12_FLOAT32_TO_INTEGER_TOLERANCE_IN_ULP; GL
+    allows either neighbouring code): an H200 went 0.03 of a code past half a code where
+    llvmpipe rounds to nearest. The mean error stays within a tenth of a code: a
+    half-code bias fails."""
     n, size = 8, (96, 64)
     scene = UniformGrid(source="smoke", cells=n, extinction=1.5, emission=3.0, march_steps=steps,
                         march_jitter=jitter, eye=(2.5, 2.6, 4.2), target=(0.0, 1.5, 0.0))
@@ -100,7 +103,7 @@ def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
     light = ratio * _blackbody([3000.0]) * (1 - through) + np.array(rendering.background) * through
     want = 1 - np.exp(-light)
     assert (chord > 0).mean() > 0.3 and chord.max() > 3  # the box fills much of the picture
-    slack = 0.5 / 255 + np.exp(-light) * ratio * (1 - through) * 0.5 / 255 + 1e-4
+    slack = 0.6 / 255 + np.exp(-light) * ratio * (1 - through) * 0.5 / 255 + 1e-4
     error = got - want
     print(f"steps {steps}: mean {error.mean() * 255:+.3f} codes, max "
           f"{np.abs(error).max() * 255:.2f}")

@@ -204,9 +204,10 @@ def test_the_plan_says_how_each_grid_quantity_is_sampled():
 
 
 # Hardware filtering's weights are the implementation's: D3D10 and on ask 8 bits of sub-texel
-# precision, which NVIDIA gives; llvmpipe filters float textures in float. A weight rounded to 8
-# bits is off by at most 2^-9, on each axis: the bound is 2^-9 of the cells' spread per axis.
-WEIGHT = 2 ** -9
+# precision; llvmpipe filters float textures in float. A weight of 8 bits is one of the two
+# quanta about the true fraction, so off by up to 2^-8 on each axis (an H200 measured 4.8e-3 of
+# the cells' spread in 2D: more than 2 x 2^-9, within 2 x 2^-8): the bound is 2^-8 per axis.
+WEIGHT = 2 ** -8
 
 
 @pytest.mark.parametrize("dims", [2, 3])

@@ -339,7 +339,7 @@ def test_the_air_alone_is_drawn_as_its_speed(gl):
     picture is the gradient map at |wind| / --max-speed, |wind| bilinear at the pixel's centre
     from the saved cell-centred wind (scipy's map_coordinates, edges extended), with the
     obstacle's colour over it: within a code (the picture's rounding, half a code, and the
-    ramp read LINEAR between its 256 entries: 8-bit weights move it by 2^-9 of a step between
+    ramp read LINEAR between its 256 entries: 8-bit weights move it by 2^-8 of a step between
     entries of a few codes)."""
     ndimage = pytest.importorskip("scipy.ndimage")
     from es2particles.render.ramps import load_ramp

@@ -70,9 +70,10 @@ class Window:
     pipelines made on its context."""
 
     def __init__(self, size=None, title="es2particles", default=(1024, 1024)):
-        self.glfw = _glfw()
         self.window = self.ctx = None
+        # No display is said before a missing glfw: installing glfw would not open a window.
         screen = screen_size()  # starts glfw, or says why not
+        self.glfw = _glfw()
         try:
             if size is None:
                 size = default

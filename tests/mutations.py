@@ -228,6 +228,17 @@ MUTATIONS = (
              (("shaders/glsl100/smoke.frag", "- read_velocity(v_uv)) / u_tau + u_gravity",
                "- read_velocity(v_uv)) / (2.0 * u_tau) + u_gravity"),),
              ("tests/test_smoke.py",)),
+    # --- motion ------------------------------------------------------------------------------
+    Mutation("motion-sway-still", "motion", "a swaying object's centre moves but its velocity "
+             "is left 0 (the air and the bounce miss the push), shader only",
+             (("shaders/glsl100/lib/motion.glsl", "pose.velocity = u_motion_sway.xyz * w * sc.y;",
+               "pose.velocity = vec3(0.0);"),),
+             ("tests/test_smoke.py",)),
+    Mutation("motion-normal-unturned", "motion", "a turned object's normals left as at rest, "
+             "shader only", (("shaders/glsl100/lib/motion.glsl",
+                              "    return motion_rotate(v, u_motion_spin.xyz, pose.turn);",
+                              "    return v;"),),
+             ("tests/test_meshes.py",)),
     # --- sort --------------------------------------------------------------------------------
     Mutation("merge-keeps-larger", "sort", "the lower slot of a comparator keeps the larger key",
              ((MERGE, "result = order_less(other, own) ? other : own;",

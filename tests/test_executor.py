@@ -173,10 +173,15 @@ def test_the_camera_and_the_moving_sphere_are_set_per_frame(recording):
         aspect = 64 / 48
         assert by_stage["sprites"]["uniforms"]["u_view_projection"] == camera.uniform(aspect)
         assert by_stage["sprites"]["uniforms"]["u_eye"] == camera.eye
-        sphere = pipeline.scene.model_at(30)
-        got = np.array(by_stage["mesh 2"]["uniforms"]["u_model"]).reshape(4, 4).T
-        assert np.array_equal(got, sphere)
-        assert by_stage["mesh 1"]["uniforms"]["u_model"] == tuple(np.eye(4).ravel())
+        # The sphere's mesh is placed by lib/motion.glsl from the smoke's sway at t = 30 dt
+        # (the physics' own uniforms); the floor does not move.
+        p = pipeline.scene.params
+        sphere = by_stage["mesh 2"]["uniforms"]
+        assert sphere["u_motion_time"] == 30 * p.dt
+        assert sphere["u_motion_offset"] == tuple(p.sphere[:3])
+        assert sphere["u_motion_sway"] == tuple(p.sway)
+        assert sphere["u_motion_pivot"] == (0.0, 0.0, 0.0, 1.0)
+        assert not any(name.startswith("u_motion") for name in by_stage["mesh 1"]["uniforms"])
 
 
 def test_a_frame_loop_steps_between_frames_and_sets_each_frame_s_uniforms(recording):

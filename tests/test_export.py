@@ -539,17 +539,17 @@ def _codes(texels):
     return t[:, 0::2] * 256 + t[:, 1::2]
 
 
-def egl_state(gl, scene, steps, camera=None, model=None):
+def egl_state(gl, scene, steps, camera=None, drag=None):
     """EGL after ``steps`` steps: each quantity's part texels, the picture of that state (seen
-    from ``camera``, default the scene's; the moving meshes placed by ``model``, default the
-    scene's motion), and the texels after one more step."""
+    from ``camera``, default the scene's; the moving meshes' rest offset moved by ``drag``,
+    default not), and the texels after one more step."""
     with Pipeline(gl, scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0) as pipeline:
         pipeline.begin(1)
         pipeline.step(steps)
         state = {q: [gl.read(t) for t in b.fronts] for q, b in pipeline.sim.buffers.items()}
-        env = pipeline.executor.frame(camera or pipeline.camera(0, 1), model)
+        env = pipeline.executor.frame(camera or pipeline.camera(0, 1), drag)
         pipeline.executor.render(env)
-        image = pipeline.image() if camera is None and model is None else None
+        image = pipeline.image() if camera is None and drag is None else None
         if image is None:
             from es2particles.frame.pipeline import read_rgb
 
@@ -769,7 +769,7 @@ def test_smoke_page_sphere_follows_a_mouse_drag_as_the_window_does(gl, browser, 
     """On the smoke page, a drag that starts on the sphere moves it: the rest centre the page
     keeps is where float64 puts it (the grabbed point carried over the level plane to the ray
     through the released pixel, live/controls.py's rule written again here), and the page's
-    picture is EGL's with the sphere moved there (the same state, the meshes' model moved by
+    picture is EGL's with the sphere moved there (the same state, the meshes' motion moved by
     the drag)."""
     scene = Smoke()
     steps = scene.defaults.steps
@@ -812,9 +812,8 @@ def test_smoke_page_sphere_follows_a_mouse_drag_as_the_window_does(gl, browser, 
         assert abs(want[2]) < 3 and 0.3 < want[0] < 2.2, want  # inside the grip's ranges
         assert np.allclose(got, want, atol=1e-9), (got, want)
 
-        model = motion.matrix(steps)
-        model[:3, 3] += want - np.array(scene.params.sphere[:3])
-        _, moved, _ = egl_state(gl, scene, steps, camera, model)
+        drag = want - np.array(scene.params.sphere[:3])
+        _, moved, _ = egl_state(gl, scene, steps, camera, tuple(drag))
         web = page.image(SIZE_3D)
         compare_images(moved, web, "the sphere dragged on the page", folder=tmp_path)
     finally:

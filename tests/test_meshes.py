@@ -14,7 +14,7 @@ from es2particles.errors import ParameterError
 from es2particles.scenes import Fountain
 from es2particles.scenes.fountain import FountainParams
 from es2particles.frame.pipeline import Renderer
-from es2particles.frame.motion import model_uniform
+from es2particles.frame.motion import Motion
 from es2particles.render.meshes import box, capsule, from_triangles, sphere, torus
 from es2particles.render.sprites import Sprites
 
@@ -167,33 +167,34 @@ def rotation(axis, degrees):
     return m
 
 
-def test_model_matrices_are_column_major_and_checked():
-    values = model_uniform(translation(1, 2, 3) @ rotation(2, 30) @ np.diag([2, 2, 2, 1]))
-    assert values[12:15] == (1.0, 2.0, 3.0), "GLSL mat4: the translation is the 4th column"
-    assert np.isclose(values[1], 2 * np.sin(np.radians(30))), "column 0 is the image of x"
-    shear = np.eye(4)
-    shear[0, 1] = 0.5
-    projective = np.eye(4)
-    projective[3, 2] = 1.0
-    for bad in (np.eye(3), np.full((4, 4), np.nan), np.diag([1.0, 2.0, 1.0, 1.0]), shear,
-                projective, np.zeros((4, 4)), "eye", [[1, 2], [3]]):
-        with pytest.raises(ParameterError):
-            model_uniform(bad)
+def test_a_motions_matrix_is_its_sway_turn_and_scale_about_the_pivot():
+    """The float64 twin of lib/motion.glsl against the matrices written here: at t = 1 s, a
+    quarter turn about z, twice the size, swayed by its full amplitude, about pivot (1, 0, 0)."""
+    motion = Motion(0.5, pivot=(1.0, 0.0, 0.0), offset=(0.0, 2.0, 0.0), axis=(0.0, 0.0, 1.0),
+                    rate=np.pi / 2, sway=(0.3, 0.0, 0.0), period=4.0, scale=2.0)
+    want = (translation(1.0 + 0.3, 2.0, 0.0) @ rotation(2, 90) @ np.diag([2.0, 2.0, 2.0, 1.0])
+            @ translation(-1.0, 0.0, 0.0))
+    assert np.allclose(motion.matrix(2), want, rtol=0, atol=1e-12)
+    values = motion.uniforms(drag=(0.5, 0.0, -1.0))
+    assert values["u_motion_offset"] == (0.5, 2.0, -1.0)
+    assert values["u_motion_pivot"] == (1.0, 0.0, 0.0, 2.0)
 
 
 SIZE = (256, 256)
 CAMERA = Camera(eye=(0.0, 2.0, 6.0), target=(0.0, 1.0, 0.0), fov=50)
 
 
-def mesh_frame(gl, meshes, model, light=(0.0, 3.0, 6.0)):
-    """Only the meshes (the one particle is dead), drawn with ``model``: the (h, w, 3) image."""
+def mesh_frame(gl, meshes, motion, light=(0.0, 3.0, 6.0)):
+    """Only the meshes (the particle is invisible), the moving ones placed by ``motion`` after
+    one step: the (h, w, 3) image."""
     scene = Fountain(FountainParams(gravity=(0.0, 0.0, 0.0)))
     with Simulation(gl, scene.graph(), 1, fmt="rgba32f") as sim:
         sim.upload("position", np.array([[0.0, 1.0, 0.0]]))
         sim.upload("life", np.array([[2.4, 2.4]]))
+        sim.step()
         sprites = Sprites(meshes=meshes, opacity=0.0, light=light, background=(0, 0, 0))
-        with Renderer(gl, sprites, sim, size=SIZE, point_size=24.0) as renderer:
-            renderer.draw(CAMERA, model)
+        with Renderer(gl, sprites, sim, size=SIZE, point_size=24.0, motion=motion) as renderer:
+            renderer.draw(CAMERA)
             return renderer.read()
 
 
@@ -206,7 +207,7 @@ def test_a_moving_sphere_is_drawn_where_the_model_puts_it_a_still_one_where_it_i
     moving = replace(sphere((0.0, 0.0, 0.0), 0.3, colour=(1, 0, 0)), moves=True)
     still = sphere((-1.0, 1.0, 0.0), 0.3, colour=(0, 1, 0))
     for place in ((1.0, 1.3, -0.5), (0.6, 0.4, 1.0)):
-        image = mesh_frame(gl, [moving, still], translation(*place))
+        image = mesh_frame(gl, [moving, still], Motion(1.0, offset=place))
         expected = CAMERA.project(np.array([place, (-1.0, 1.0, 0.0)]), SIZE)[0]
         got = np.array([lit_centre(image[..., 0]), lit_centre(image[..., 1])])
         print(f"moving sphere at {place}: centre {got[0]} vs {expected[0]}; still one {got[1]} "
@@ -217,7 +218,7 @@ def test_a_moving_sphere_is_drawn_where_the_model_puts_it_a_still_one_where_it_i
 def test_a_rotated_box_covers_its_projected_corners_and_its_normals_turn(gl):
     bar = replace(box((0.0, 0.0, 0.0), (0.6, 0.1, 0.1), colour=(1, 1, 1)), moves=True)
     model = translation(0.3, 1.1, 0.0) @ rotation(2, 90)  # the bar stands up
-    image = mesh_frame(gl, [bar], model)
+    image = mesh_frame(gl, [bar], Motion(1.0, offset=(0.3, 1.1, 0.0), rate=np.pi / 2))
     corners = np.array([[x, y, z] for x in (-0.6, 0.6) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
     world = corners @ model[:3, :3].T + model[:3, 3]
     pixels = CAMERA.project(world, SIZE)[0]
@@ -230,8 +231,8 @@ def test_a_rotated_box_covers_its_projected_corners_and_its_normals_turn(gl):
     # A plate facing up, turned and scaled to face the camera and the light at the eye: lit fully
     # only if its normal turned with it (unturned, it would be edge-on to the light: ambient).
     plate = replace(box((0.0, 0.0, 0.0), (0.5, 0.02, 0.5), colour=(0.8, 0.8, 0.8)), moves=True)
-    model = translation(0.0, 1.0, 0.0) @ rotation(0, 90) @ np.diag([1.5, 1.5, 1.5, 1.0])
-    image = mesh_frame(gl, [plate], model, light=CAMERA.eye)
+    image = mesh_frame(gl, [plate], Motion(1.0, offset=(0.0, 1.0, 0.0), axis=(1.0, 0.0, 0.0),
+                                           rate=np.pi / 2, scale=1.5), light=CAMERA.eye)
     centre = CAMERA.project(np.array([[0.0, 1.0, 0.0]]), SIZE)[0][0].astype(int)
     front = np.array([0.0, 1.0, 0.03])  # the plate's front face, scaled 0.02 * 1.5
     cosine = unit(np.array(CAMERA.eye) - front).dot([0.0, 0.0, 1.0])

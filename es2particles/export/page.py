@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import CapabilityError, ParameterError
-from ..frame.plan import frame_value, plan_frame
+from ..frame.plan import frame_value, motion_values, plan_frame
 from ..frame.settings import DEFAULT
 from ..frame.state import as_rows, encode_values, fill_texels, part_textures, zero_texels
 from ..gl.context import Capabilities, texture_format
@@ -183,7 +183,8 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
                  "state": asdict(stage.state), "clear": stage.clear, "step": stage.step,
                  "uniforms": {k: _flat(v) for k, v in {**stage.generated,
                                                        **stage.uniforms}.items()},
-                 "frame_uniforms": {k: [spec[0], *map(_json_number, spec[1:])]
+                 "frame_uniforms": {k: [spec[0], *(a if isinstance(a, str) else _json_number(a)
+                                                    for a in spec[1:])]
                                     for k, spec in stage.frame_uniforms.items()},
                  "repeat": [{k: _flat(v) for k, v in r.items()} for r in stage.repeat],
                  "per_frame": stage.per_frame, "swap": stage.swap, "samples": stage.samples,
@@ -330,9 +331,11 @@ def _push(scene, plan):
 
 
 def _motion(motion):
-    if motion is None:
-        return None
-    return {k: _json_number(v) for k, v in asdict(motion).items()}
+    """The moving object's step length and ``lib/motion.glsl``'s uniforms at step 0 (the page
+    gives the time and the grip's drag): the formula itself stays in the shader."""
+    return {"dt": _json_number(motion.dt if motion is not None else 0.0),
+            "uniforms": {name: [_json_number(v) for v in np.atleast_1d(value)]
+                         for name, value in motion_values(motion, 0).items()}}
 
 
 def write_page(plan, out):

@@ -20,19 +20,19 @@ from ..errors import Es2ParticlesError, ParameterError, ShaderError
 from ..gl.bindings import uniform_value
 from ..gl.command import DrawCommand
 from ..gl.context import numpy_dtype
-from .motion import model_uniform
-from .plan import frame_value
+from .plan import frame_value, motion_values
 from .state import StateBuffer, Textures
 
 
 @dataclass(frozen=True)
 class Frame:
     """What a frame's values come from: its ``camera`` (None for 2D), the simulation's ``step``
-    and the moving object's ``model`` uniform (16 floats; None: the identity)."""
+    and the moving object's ``motion`` uniforms (:func:`~es2particles.frame.plan.motion_values`;
+    None: still)."""
 
     camera: object = None
     step: int = 0
-    model: tuple = None
+    motion: dict = None
 
 
 class Executor:
@@ -134,15 +134,12 @@ class Executor:
                                  f"{', '.join(self.external) or 'none'})")
         self.external[name] = self.resources[name] = made
 
-    def frame(self, camera=None, model=None, step=None):
-        """The :class:`Frame` of a render: ``model`` a 4x4 matrix placing the moving meshes
-        (None: the plan's motion after ``step`` steps, default the steps done)."""
+    def frame(self, camera=None, drag=None, step=None):
+        """The :class:`Frame` of a render after ``step`` steps (default the steps done): the
+        moving meshes placed by the plan's motion then, its rest offset moved by ``drag`` (a
+        hand's, 3 floats; None: none)."""
         step = self.steps_done if step is None else step
-        if model is not None:
-            model = model_uniform(model)
-        elif self.plan.motion is not None:
-            model = self.plan.motion.uniform(step)
-        return Frame(camera, step, model)
+        return Frame(camera, step, motion_values(self.plan.motion, step, drag))
 
     def texture(self, ref):
         """The texture a :class:`~es2particles.frame.plan.Ref` names now."""
@@ -168,7 +165,7 @@ class Executor:
         command = self.commands[stage.name]
         target = self.resources[stage.target.resource]
         aspect = target.size[0] / target.size[1]
-        values = {name: frame_value(spec, frame.camera, frame.step, self.ctx.caps, frame.model,
+        values = {name: frame_value(spec, frame.camera, frame.step, self.ctx.caps, frame.motion,
                                     aspect)
                   for name, spec in stage.frame_uniforms.items()}
         swaps = self.plan.resources[stage.target.resource].swap == "draw"

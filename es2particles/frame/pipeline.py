@@ -214,13 +214,13 @@ class Pipeline:
         """The scene's camera of frame ``frame`` of ``frames`` (None for a 2D scene)."""
         return None if self.plan.camera is None else self.plan.camera(frame, frames)
 
-    def render(self, frame=0, frames=1, camera=None, model=None):
+    def render(self, frame=0, frames=1, camera=None, drag=None):
         """Draw frame ``frame`` of ``frames`` (the camera of a 3D scene moves with it): every
         stage of the frame, the density accumulated over the run's samples; returns the final
-        texture. ``camera`` and ``model`` (a live view's) replace the scene's camera of the frame
-        and its motion's model matrix."""
+        texture. ``camera`` (a live view's) replaces the scene's camera of the frame; ``drag``
+        (3 floats) moves its moving object's rest offset (a hand's grip)."""
         self._use()
-        env = self.executor.frame(camera or self.camera(frame, frames), model)
+        env = self.executor.frame(camera or self.camera(frame, frames), drag)
         if self._faint_check:
             self._faint_check = False
             for message in self.plan.rendering.warnings(env.camera, self.size):
@@ -479,16 +479,17 @@ class Renderer:
         self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))
         self.final = None
 
-    def draw(self, camera=None, model=None, clear=True):
-        """Draw the frame seen from ``camera`` (3D), the moving meshes placed by ``model`` (a 4x4
-        matrix; default the motion after the simulation's steps); ``clear`` False keeps the
-        density target's sum (accumulation). Returns the presented texture."""
+    def draw(self, camera=None, drag=None, clear=True):
+        """Draw the frame seen from ``camera`` (3D), the moving meshes placed by the motion after
+        the simulation's steps, its rest offset moved by ``drag`` (3 floats; None: none);
+        ``clear`` False keeps the density target's sum (accumulation). Returns the presented
+        texture."""
         if self.executor is None:
             raise Es2ParticlesError("this Renderer was released; make a new one")
         if self.sim.executor is None:
             raise Es2ParticlesError("the Simulation this Renderer draws was released: release "
                                     "the renderer first, or draw before the simulation goes")
-        env = self.executor.frame(camera, model, self.sim.steps_done)
+        env = self.executor.frame(camera, drag, self.sim.steps_done)
         for stage in self.plan.frame_stages:
             self.executor.run(stage, env, clear=clear or stage.kind != "points")
         self.final = self.executor.front(self.plan.present)

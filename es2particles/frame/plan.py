@@ -33,7 +33,7 @@ from ..gl.context import Capabilities, texture_format
 from .graph import scene_graph
 from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
-from .motion import IDENTITY
+from .motion import Motion
 from .settings import (COMMON_SETTINGS, MAX_STEPS, FrameSettings, check_rounding,
                        check_settings, parse_size, parse_trails, resolve_format,
                        scene_rendering)
@@ -41,8 +41,20 @@ from .state import Layout
 
 # --- frame values -------------------------------------------------------------------------------
 
-FRAME_VALUES = ("step", "view_projection", "eye", "forward", "depth_range", "model",
+FRAME_VALUES = ("step", "view_projection", "eye", "forward", "depth_range", "motion",
                 "sprite_size", "jogl_sprite_size", "light_size", "depth_planes")
+# lib/motion.glsl's uniforms as a frame gives them: the motion's time and Motion.uniforms.
+MOTION_UNIFORMS = ("u_motion_time", "u_motion_pivot", "u_motion_spin", "u_motion_sway",
+                   "u_motion_offset")
+STILL = Motion(dt=0.0)  # the motion of meshes that move where the scene gives none: none
+
+
+def motion_values(motion, step, drag=None):
+    """:data:`MOTION_UNIFORMS`' values after ``step`` steps of ``motion`` (None: :data:`STILL`),
+    its rest offset moved by ``drag`` (a hand's, 3 floats; None: none)."""
+    motion = motion or STILL
+    return {"u_motion_time": float(step * motion.dt),
+            **motion.uniforms((0.0, 0.0, 0.0) if drag is None else drag)}
 
 
 def depth_range(lo, hi, camera):
@@ -53,18 +65,19 @@ def depth_range(lo, hi, camera):
     return float(depth.min()), float(depth.max())
 
 
-def frame_value(spec, camera=None, step=0, caps=None, model=None, aspect=1.0):
+def frame_value(spec, camera=None, step=0, caps=None, motion=None, aspect=1.0):
     """A uniform's value for this frame, from its ``spec`` (a name of :data:`FRAME_VALUES` and
     its arguments): the simulation's ``step``, the ``camera``'s view-projection for a target of
     ``aspect``, its eye and viewing direction, the ``depth_range`` (far, 1 / (far - near)) of a
-    box's corners along it, the moving object's ``model`` matrix (16 floats; None: the identity),
+    box's corners along it, a uniform of the moving object's ``motion`` (:func:`motion_values`;
+    None: :data:`STILL`'s),
     and the sprites' and shadow map's sizes, whose last two numbers are the context's point size
     range. The WebGL page's executor computes the same from its own camera (``executor.js``)."""
     name, *args = spec
     if name == "step":
         return float(step)
-    if name == "model":
-        return IDENTITY if model is None else model
+    if name == "motion":
+        return (motion or motion_values(None, 0))[args[0]]
     if name == "sprite_size":
         lo, hi = caps.point_size_range
         pixels, spread = args

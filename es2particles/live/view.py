@@ -107,7 +107,7 @@ class LiveView:
 
     def _place(self, centre, drift):
         g = self.grip
-        self.pipeline.sim.set_uniforms({g.uniform: (*map(float, centre), float(g.radius)),
+        self.pipeline.sim.set_uniforms({g.uniform: tuple(map(float, centre)),
                                         g.velocity: tuple(map(float, drift))})
 
     # -- drawing -----------------------------------------------------------------------------------
@@ -116,23 +116,21 @@ class LiveView:
         """Draw a frame as things stand; returns the presented texture."""
         self.start()
         camera = None if self.view is None else self.view.camera()
-        return self.pipeline.render(0, 1, camera=camera, model=self.model())
+        return self.pipeline.render(0, 1, camera=camera, drag=self.drag())
 
-    def model(self):
-        """The moving meshes' model matrix: the scene's motion, moved with the grip (None: the
-        plan's own)."""
-        motion = self.pipeline.plan.motion
-        if self.grip is None or motion is None:
+    def drag(self):
+        """How far the grip has moved the moving object's rest centre (None: no grip)."""
+        if self.grip is None:
             return None
-        m = motion.matrix(self.pipeline.sim.steps_done)
-        m[:3, 3] += self.centre - np.asarray(self.grip.centre, float)
-        return m
+        return tuple(self.centre - np.asarray(self.grip.centre, float))
 
     def grip_centre(self):
-        """The grip's centre as drawn now: where the model matrix puts its meshes' origin (they
-        are modelled about it, the motion's offset being the rest centre)."""
-        m = self.model()
-        return self.centre.copy() if m is None else m[:3, 3].copy()
+        """The grip's centre as drawn now: where the motion puts its meshes' origin (they are
+        modelled about it, the motion's offset being the rest centre)."""
+        motion = self.pipeline.plan.motion
+        if self.grip is None or motion is None:
+            return self.centre.copy()
+        return motion.matrix(self.pipeline.sim.steps_done, self.drag())[:3, 3].copy()
 
     # -- input -------------------------------------------------------------------------------------
 

@@ -22,12 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ..frame.motion import IDENTITY
 from ..frame.plan import Ref, Resource, Stage
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 from .camera import Camera
-from .meshes import mesh_vertex_data, plan_meshes
+from .meshes import mesh_motion, mesh_vertex_data, plan_meshes
 
 
 @dataclass(frozen=True)
@@ -91,12 +90,10 @@ def plan_lamp(b, sprites, light_size):
         for i in casting:
             mesh = meshes[i - 1]
             name, _, _ = mesh_vertex_data(b, i, mesh)
-            frame = {"u_model": ("model",)} if mesh.moves else {}
+            defines, frame = mesh_motion(mesh)
             uniforms = {"u_view_projection": view_projection}
-            if not mesh.moves:
-                uniforms["u_model"] = IDENTITY
             stage = f"lamp {step}: mesh {i}"
-            b.stage(Stage(stage, "lamp", "lamp/occluder.frag", "sprites/mesh.vert",
+            b.stage(Stage(stage, "lamp", "lamp/occluder.frag", "sprites/mesh.vert", defines,
                           target=Ref("light map"), vertices=name, state=state,
                           uniforms=uniforms, frame_uniforms=frame,
                           clear=clear if not names else None, what=what))

@@ -10,9 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import ParameterError, check_range
-from ..frame.plan import Ref, Resource, Stage, Vertices
+from ..frame.plan import MOTION_UNIFORMS, Ref, Resource, Stage, Vertices
 from ..gl.device import DrawState
-from ..frame.motion import IDENTITY
 
 
 @dataclass(frozen=True)
@@ -226,6 +225,15 @@ def mesh_vertex_data(b, i, mesh):
     return name, defines, inputs
 
 
+def mesh_motion(mesh):
+    """(defines, frame uniforms) placing ``mesh`` in ``sprites/mesh.vert``: none for a mesh in
+    world coordinates; for a moving one, MOVES and ``lib/motion.glsl``'s uniforms, each frame's
+    from the plan's motion (:data:`~es2particles.frame.plan.MOTION_UNIFORMS`)."""
+    if not mesh.moves:
+        return {}, {}
+    return {"MOVES": None}, {name: ("motion", name) for name in MOTION_UNIFORMS}
+
+
 def plan_meshes(b, meshes, light, target, clear, only=None, lamp=None):
     """Add a stage per mesh to plan builder ``b``: each drawn into ``target`` with depth test and
     writes, the first clearing it to ``clear`` (and its depth to 1); ``only``: the meshes'
@@ -243,11 +251,9 @@ def plan_meshes(b, meshes, light, target, clear, only=None, lamp=None):
         if mesh.colour2 is not None:
             uniforms.update(u_colour2=tuple(float(v) for v in mesh.colour2),
                             u_checker=float(mesh.checker))
-        frame = {"u_view_projection": ("view_projection",)}
-        if mesh.moves:
-            frame["u_model"] = ("model",)
-        else:
-            uniforms["u_model"] = IDENTITY
+        moving_defines, moving = mesh_motion(mesh)
+        defines = {**defines, **moving_defines}
+        frame = {"u_view_projection": ("view_projection",), **moving}
         what = ", ".join(filter(None, [f"{len(mesh.triangles)} triangles",
                                        "checkered" if mesh.colour2 is not None else "",
                                        "textured" if mesh.texture is not None else "",
@@ -267,13 +273,9 @@ def plan_mesh_passes(b, meshes, kind, label, fragment, target, clear, what, fram
     depth pre-pass and the light shafts' occluders. ``frame``: more frame uniforms it reads."""
     for i, mesh in enumerate(meshes, 1):
         name, _, _ = mesh_vertex_data(b, i, mesh)
-        frames = {"u_view_projection": ("view_projection",), **(frame or {})}
-        uniforms = {}
-        if mesh.moves:
-            frames["u_model"] = ("model",)
-        else:
-            uniforms["u_model"] = IDENTITY
-        b.stage(Stage(f"{label}: mesh {i}", kind, fragment, "sprites/mesh.vert",
+        defines, moving = mesh_motion(mesh)
+        frames = {"u_view_projection": ("view_projection",), **(frame or {}), **moving}
+        b.stage(Stage(f"{label}: mesh {i}", kind, fragment, "sprites/mesh.vert", defines,
                       target=Ref(target), vertices=name, state=DrawState(depth_test=True),
-                      uniforms=uniforms, frame_uniforms=frames,
+                      frame_uniforms=frames,
                       clear=clear if i == 1 else None, what=what))

@@ -45,8 +45,9 @@ class Control:
 @dataclass(frozen=True)
 class Grip:
     """A sphere of the scene that a hand drags over the floor (a live view, the page): its rest
-    centre ``centre`` is components 0-2 of uniform ``uniform``, its rest centre's velocity while
-    dragged is uniform ``velocity`` (both declared by the scene's passes), and the drag keeps
+    centre ``centre`` is uniform ``uniform`` (a vec3: the motion's ``u_motion_offset`` where the
+    motion places the sphere), its rest centre's velocity while dragged is uniform
+    ``velocity`` (both declared by the scene's passes), and the drag keeps
     that centre's x within ``x_range`` and z within ``z_range``. Its moving meshes are modelled
     about the origin and placed by the scene's motion, whose offset is the rest centre: a drag
     moves them by what it moves the rest centre."""

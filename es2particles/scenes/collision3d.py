@@ -147,14 +147,13 @@ class Collision3DParams(EmitterParams):
     def spin_rate(self):
         return np.radians(self.spin[0])
 
-    def pose(self, t):
-        """(centre offset from the pivot, angle, velocity of the pivot) at time t (float64 twin of
-        ``object_pose``)."""
-        amplitude, period = np.asarray(self.sway[:3], float), self.sway[3]
-        if period > 0:
-            w = 2 * np.pi / period
-            return amplitude * np.sin(w * t), self.spin_rate * t, amplitude * w * np.cos(w * t)
-        return np.zeros(3), self.spin_rate * t, np.zeros(3)
+    def motion(self, pivot):
+        """The object's motion about ``pivot`` (its field's): its spin, its sway and its scale
+        (``lib/motion.glsl``)."""
+        return Motion(self.dt, pivot=tuple(map(float, pivot)),
+                      axis=tuple(map(float, self.spin_axis)), rate=float(self.spin_rate),
+                      sway=tuple(map(float, self.sway[:3])), period=float(self.sway[3]),
+                      scale=float(self.scale))
 
 
 def parse_field_format(text):
@@ -266,7 +265,6 @@ class Collision3D(Emitter):
         p, f = self.params, self.field
         _, block, _ = self.field_choice(caps)
         max_size = caps.max_texture_size if caps is not None else 4096
-        axis = p.spin_axis
         return {"u_dt": float(p.dt), "u_lifetime": tuple(map(float, p.lifetime)),
                 "u_emitter": (*map(float, p.emitter), float(p.emitter_radius)),
                 "u_launch": (*map(float, p.launch), float(p.launch_spread)),
@@ -274,9 +272,7 @@ class Collision3D(Emitter):
                 "u_jitter": float(p.jitter), "u_max_speed": float(p.max_speed),
                 "u_sliding": float(p.sliding), "u_bounce": float(p.bounce),
                 "u_substep": float(self.substep), "u_surface_speed": float(self.surface_speed),
-                "u_pose": (*map(float, f.pivot), float(p.scale)),
-                "u_spin": (*map(float, axis), float(p.spin_rate)),
-                "u_sway": tuple(map(float, p.sway)),
+                **p.motion(f.pivot).uniforms(),
                 **f.uniforms(max_size, block or (1, 1))}
 
     def begin(self, count, rng):
@@ -310,10 +306,7 @@ class Collision3D(Emitter):
         p = self.params
         if not (self.moves or p.scale != 1):
             return None
-        return Motion(p.dt, pivot=tuple(map(float, self.field.pivot)),
-                      axis=tuple(map(float, p.spin_axis)), rate=float(p.spin_rate),
-                      sway=tuple(map(float, p.sway[:3])), period=float(p.sway[3]),
-                      scale=float(p.scale))
+        return p.motion(self.field.pivot)
 
     def sprites(self):
         p = self.params

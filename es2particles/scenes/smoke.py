@@ -124,8 +124,16 @@ class SmokeParams(EmitterParams):
 
         return {"u_dt": self.dt, "u_tau": self.tau, "u_relax": tuple(map(float, relaxation(self.dt, self.tau))),
                 "u_gravity": self.gravity, "u_wind": self.wind, "u_noise": self.noise,
-                "u_sphere": self.sphere, "u_sphere_drift": (0.0, 0.0, 0.0), "u_sway": self.sway,
-                "u_emitter": self.emitter,                "u_emission": self.emission, "u_lifetime": self.lifetime}
+                "u_sphere_radius": float(self.sphere[3]), "u_sphere_drift": (0.0, 0.0, 0.0),
+                **self.motion().uniforms(), "u_emitter": self.emitter,
+                "u_emission": self.emission, "u_lifetime": self.lifetime}
+
+    def motion(self):
+        """The sphere's sway about its rest centre (``lib/motion.glsl``)."""
+        from ..frame.motion import Motion
+
+        return Motion(self.dt, offset=tuple(map(float, self.sphere[:3])),
+                      sway=tuple(map(float, self.sway[:3])), period=float(self.sway[3]))
 
 
 class Smoke(Emitter):
@@ -175,19 +183,17 @@ class Smoke(Emitter):
         return [shapes.floor(HALF, cell=0.5), replace(ball, moves=True)]
 
     def motion(self):
-        """The sphere's sway about its rest centre (``twins/smoke.py``: ``sphere``)."""
-        from ..frame.motion import Motion
-
-        p = self.params
-        return Motion(p.dt, offset=p.sphere[:3], sway=p.sway[:3], period=p.sway[3])
+        """The sphere's sway about its rest centre."""
+        return self.params.motion()
 
     def grip(self):
         """The sphere, which a hand drags over the floor in a live view or the page: its rest
-        centre is u_sphere's xyz and its drag velocity u_sphere_drift; the swaying sphere stays
-        within the position range's x and z (as ``check`` asks of --sphere and --sway)."""
+        centre is the motion's offset (u_motion_offset) and its drag velocity u_sphere_drift;
+        the swaying sphere stays within the position range's x and z (as ``check`` asks of
+        --sphere and --sway)."""
         p = self.params
         reach = [HALF - abs(a) - p.sphere[3] for a in (p.sway[0], p.sway[2])]
-        return Grip("u_sphere", "u_sphere_drift", p.sphere[:3], p.sphere[3],
+        return Grip("u_motion_offset", "u_sphere_drift", p.sphere[:3], p.sphere[3],
                     (-reach[0], reach[0]), (-reach[1], reach[1]))
 
     def sprites(self):

@@ -5,7 +5,7 @@ the report's independent reference (no emission: tests keep lifetimes long)."""
 
 import numpy as np
 
-from .motion import rotation
+from . import motion
 from .drag import exact_drag
 from .life import step_hash
 
@@ -54,8 +54,7 @@ class Object:
         self.field, self.p = field, p
 
     def at(self, t):
-        offset, angle, velocity = self.p.pose(t)
-        return self.field.pivot + offset, rotation(self.p.spin_axis, angle), velocity
+        return motion.pose(self.p.motion(self.field.pivot), t)
 
     def to_object(self, x, pose):
         centre, r, _ = pose

@@ -5,17 +5,14 @@ inertial step (acceleration, then velocity and position from it) and the tracers
 
 import numpy as np
 
-from . import flow
+from . import flow, motion
 
 
 def sphere(physics, t, drift=(0.0, 0.0, 0.0)):
-    """(centre (3,), velocity (3,)) of the swaying sphere at time ``t``; ``drift``: the rest
-    centre's own velocity (a hand dragging it)."""
-    p = physics
-    w = 2 * np.pi / p.sway[3]
-    amplitude = np.asarray(p.sway[:3], float)
-    return (np.asarray(p.sphere[:3], float) + amplitude * np.sin(w * t),
-            amplitude * w * np.cos(w * t) + np.asarray(drift, float))
+    """(centre (3,), velocity (3,)) of the swaying sphere at time ``t`` (the scene's motion:
+    ``twins/motion.py``); ``drift``: the rest centre's own velocity (a hand dragging it)."""
+    centre, _, velocity = motion.pose(physics.motion(), t)
+    return centre, velocity + np.asarray(drift, float)
 
 
 def air(physics, x, t, drift=(0.0, 0.0, 0.0)):

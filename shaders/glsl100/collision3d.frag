@@ -10,7 +10,7 @@
 // (velocity, its random spread across), u_gravity (gravity plus force /
 // mass), u_drag (6 pi eta r / m), u_jitter (random acceleration, per sqrt(s)), u_max_speed,
 // u_sliding, u_bounce, u_substep (the longest sub-step move, world units), u_surface_speed (the
-// fastest the object's surface moves) and lib/field3d.glsl's.
+// fastest the object's surface moves), lib/field3d.glsl's and lib/motion.glsl's (the object's pose).
 // ORIENTED (the confetti, scenes/confetti.py): a fourth quantity, normal, the octahedral unit
 // vector a particle's quad faces (lib/octahedral.glsl), and its pass WRITE_NORMAL: drawn at
 // random at birth, set to the normal of the last surface touched in a step (the object's, turned
@@ -40,6 +40,7 @@ vec4 flight_random(vec2 uv)
 }
 
 #include "lib/field3d.glsl"
+#include "lib/motion.glsl"
 #include "lib/trig.glsl"
 #include "lib/sequence.glsl"
 
@@ -93,7 +94,7 @@ void respond(inout vec3 x, inout vec3 v, vec3 a, float d, vec3 n, float turn, fl
 void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, vec3 x_before, Pose pose,
              float turn)
 {
-    vec3 q = to_object(x, pose);
+    vec3 q = motion_unplace(x, pose);
     float d;
     vec3 n;
     field_sample(q, d, n);
@@ -116,10 +117,11 @@ void collide(inout vec3 x, inout vec3 v, vec3 a, vec3 q_before, vec3 x_before, P
                 d = dot(moved, n);
             }
         }
-        vec3 surface = surface_velocity(x, pose);
+        vec3 surface = motion_surface_velocity(x, pose);
         vec3 relative = v - surface;
-        vec3 world = rotate(n, u_spin.xyz, pose.angle);
-        respond(x, relative, a, d * u_pose.w, world, turn, dot(q - q_before, n) * u_pose.w);
+        vec3 world = motion_turn(n, pose);
+        respond(x, relative, a, d * u_motion_pivot.w, world, turn,
+                dot(q - q_before, n) * u_motion_pivot.w);
         v = relative + surface;
         touched = world;
     }
@@ -140,18 +142,18 @@ void integrate(inout vec3 x, inout vec3 v, vec4 r)
     float h = u_dt / n;
     vec2 drag = exact_drag(u_drag, h);
     float t0 = u_step * u_dt;
-    vec3 q_before = to_object(x, object_pose(t0));
+    vec3 q_before = motion_unplace(x, motion_pose(t0));
     for (int i = 0; i < MAX_SUBSTEPS; ++i) {
         if (float(i) >= n) {
             break;
         }
-        Pose pose = object_pose(t0 + (float(i) + 1.0) * h);
+        Pose pose = motion_pose(t0 + (float(i) + 1.0) * h);
         v = clamp(v * drag.x + u_gravity * drag.y, -u_max_speed, u_max_speed);
         vec3 x0 = x;
         x += v * h;
         collide(x, v, u_gravity, q_before, x0, pose, r.x);
         v = clamp(v, -u_max_speed, u_max_speed);
-        q_before = to_object(x, pose);
+        q_before = motion_unplace(x, pose);
     }
 }
 

@@ -16,26 +16,27 @@
 // streamline) is put back on its surface; one that leaves the position range is put back at the
 // emitter (keeping its velocity and the rest of its life: the life clock does not see it).
 // Uniforms, declared by the graph from the scene (scenes/smoke.py): u_dt, u_tau, u_relax,
-// u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind), u_sphere
-// (rest centre, radius), u_sphere_drift, u_sway (amplitude xyz, period), u_emitter (centre, orbit radius),
+// u_gravity, u_wind, u_noise (amplitude, spatial frequency, ramp distance, drift with the wind),
+// u_sphere_radius, u_sphere_drift, lib/motion.glsl's u_motion_* (the sphere's rest centre is
+// the motion's offset, its sway the motion's), u_emitter (centre, orbit radius),
 // u_emission (orbit period, spawn radius), u_lifetime. numpy twin: es2particles/twins/smoke.py.
-// sin and cos of the sway and the orbit are lib/trig.glsl's: NVIDIA's built-ins are up to 9.7e-6
+// sin and cos of the orbit (and the sway's, in lib/motion.glsl) are lib/trig.glsl's: NVIDIA's built-ins are up to 9.7e-6
 // off float64 for |x| <= 100 (an H200, driver 580), ~80 times the error the air's bound carries.
 #include "lib/life.glsl"
 #include "lib/flow.glsl"
 #include "lib/trig.glsl"
+#include "lib/motion.glsl"
 
 const float TAU = 6.2831853;
 
-// The sphere's centre at time t (xyz) and its velocity (out): the sway about the rest centre,
-// plus u_sphere_drift, the rest centre's own velocity while a hand drags it (live views and the
-// page; zero otherwise).
+// The sphere's centre at time t (xyz) and its velocity (out): the scene's motion (its sway about
+// the rest centre, u_motion_offset), plus u_sphere_drift, the rest centre's own velocity while a
+// hand drags it (live views and the page; zero otherwise).
 vec3 sphere_centre(float t, out vec3 velocity)
 {
-    float w = TAU / u_sway.w;
-    vec2 sc = trig_sin_cos(w * t);
-    velocity = u_sway.xyz * w * sc.y + u_sphere_drift;
-    return u_sphere.xyz + u_sway.xyz * sc.x;
+    Pose pose = motion_pose(t);
+    velocity = pose.velocity + u_sphere_drift;
+    return pose.centre;
 }
 
 vec3 air(vec3 x, float t)
@@ -49,7 +50,7 @@ vec3 air(vec3 x, float t)
     vec3 skewed = offset + dot(offset, vec3(1.0 / 3.0));
     skewed -= 289.0 * floor(skewed / 289.0 + 0.5);
     offset = skewed - dot(skewed, vec3(1.0 / 6.0));
-    return air_velocity(x, c, u_sphere.w, u_wind, v_sphere, u_noise, offset);
+    return air_velocity(x, c, u_sphere_radius, u_wind, v_sphere, u_noise, offset);
 }
 
 vec3 emitter_at(float t)
@@ -74,7 +75,7 @@ vec3 outside_sphere(vec3 x, float t)
     vec3 v_sphere;
     vec3 d = x - sphere_centre(t, v_sphere);
     float r = length(d);
-    return r < u_sphere.w && r > 0.0 ? x + d * (u_sphere.w / r - 1.0) : x;
+    return r < u_sphere_radius && r > 0.0 ? x + d * (u_sphere_radius / r - 1.0) : x;
 }
 
 #ifdef WRITE_POSITION

@@ -514,8 +514,14 @@
   // take it, and its velocity while it moves, at the next step (live/controls.py).
   const grip = plan.grip && {
     centre: plan.grip.centre.slice(), stepped: plan.grip.centre.slice(),
-    // Its centre as drawn after `step` steps: the model matrix's translation.
-    drawn(step) { const m = model(step); return [m[12], m[13], m[14]]; },
+    // Its centre as drawn after `step` steps, to pick it: lib/motion.glsl's motion_pose (the
+    // sway about the rest centre), the page's one copy of it, which draws nothing (the meshes
+    // and the passes place the sphere in the shader; tests/test_export.py drags it).
+    drawn(step) {
+      const u = motionUniforms(step), sway = u.u_motion_sway;
+      const s = sway[3] > 0 ? Math.sin(2 * Math.PI / sway[3] * u.u_motion_time[0]) : 0;
+      return [0, 1, 2].map((i) => u.u_motion_pivot[i] + u.u_motion_offset[i] + sway[i] * s);
+    },
     hit(origin, direction) {  // the distance along the ray to the sphere, or null
       const c = grip.drawn(stepsDone), oc = origin.map((v, i) => v - c[i]);
       const b = oc.reduce((s, v, i) => s + v * direction[i], 0);
@@ -537,7 +543,7 @@
     beforeStep() {  // the centre and its velocity for this step
       const dt = plan.motion.dt, g = plan.grip;
       live[g.velocity] = grip.centre.map((v, i) => (v - grip.stepped[i]) / dt);
-      live[g.uniform] = [...grip.centre, g.radius];
+      live[g.uniform] = grip.centre.slice();
       grip.stepped = grip.centre.slice();
     },
   };
@@ -561,27 +567,14 @@
     },
   };
 
-  // The moving object's model matrix after `step` steps (frame/motion.py: Motion), column-major.
-  function model(step) {
-    const m = plan.motion;
-    const t = step * m.dt;
-    const angle = m.rate * t;
-    const [x, y, z] = m.axis;
-    const c = Math.cos(angle), s = Math.sin(angle), k = 1 - c;
-    const r = [[c + x * x * k, x * y * k - z * s, x * z * k + y * s],
-               [y * x * k + z * s, c + y * y * k, y * z * k - x * s],
-               [z * x * k - y * s, z * y * k + x * s, c + z * z * k]].map(
-      (row) => row.map((v) => v * m.scale));
-    const sway = m.period > 0 ? Math.sin(2 * Math.PI / m.period * t) : 0;
-    const out = new Array(16).fill(0);
-    for (let i = 0; i < 3; i += 1) {
-      for (let j = 0; j < 3; j += 1) out[4 * j + i] = r[i][j];
-      const turned = r[i][0] * m.pivot[0] + r[i][1] * m.pivot[1] + r[i][2] * m.pivot[2];
-      out[12 + i] = m.offset[i] + m.pivot[i] + m.sway[i] * sway - turned
-        + (grip ? grip.centre[i] - plan.grip.centre[i] : 0);
+  // lib/motion.glsl's uniforms after `step` steps: the plan's (frame/plan.py: motion_values),
+  // its time, and its rest offset moved by the grip's drag.
+  function motionUniforms(step) {
+    const m = plan.motion, u = {...m.uniforms, u_motion_time: [step * m.dt]};
+    if (grip) {
+      u.u_motion_offset = u.u_motion_offset.map((v, i) => v + grip.centre[i] - plan.grip.centre[i]);
     }
-    out[15] = 1;
-    return out;
+    return u;
   }
 
   let stepsDone = 0;
@@ -590,8 +583,7 @@
     const exact = initial !== undefined && camera && !camera.state.moved;
     switch (spec[0]) {
       case "step": return [stepsDone];
-      case "model": return plan.motion ? model(stepsDone) :
-        [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1];
+      case "motion": return motionUniforms(stepsDone)[spec[1]];
       case "sprite_size": return [spec[1], spec[2], ...pointRange];
       case "jogl_sprite_size": {  // the JOGL seed's law: over the squared xz distance fraction
         if (exact) return [initial[0], initial[1], ...pointRange];

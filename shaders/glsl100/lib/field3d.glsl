@@ -1,12 +1,11 @@
 // The 3D collision field of one object: signed distance and unit normal per voxel, in a 2D slice
-// atlas (slices of constant z tiled in rows), sampled in the object's own space, and the object's
-// pose at a time (it turns about an axis and sways along a line). numpy twins:
-// es2particles/field3d.py (VoxelField.sample, octahedral_decode) and twins/collision3d.py (pose).
+// atlas (slices of constant z tiled in rows), sampled in the object's own space (where
+// lib/motion.glsl's motion_unplace takes a world point). numpy twins: es2particles/field3d.py
+// (VoxelField.sample, octahedral_decode).
 // Uniforms (VoxelField.uniforms, scenes/collision3d.py): u_field (the atlas), u_field_lo (the
 // box's low corner, object space), u_voxel (a voxel's side), u_field_cells (voxels along x, y,
 // z), u_field_atlas (tile width, tile height, tiles per row, -), u_field_atlas_size (texels),
-// u_field_range (the distance's low end and span); u_pose (pivot xyz, scale), u_spin (unit axis,
-// rate in rad/s), u_sway (amplitude xyz, period in s; 0: no sway).
+// u_field_range (the distance's low end and span).
 // FIELD_FLOAT: the atlas holds (distance, normal) as floats; FIELD_SMOOTH: R the distance in 8
 // bits, GB the octahedral normal (for lossy block compression); else RG the distance in 16 bits
 // (high, low bytes) and BA the octahedral normal.
@@ -42,43 +41,4 @@ void field_sample(vec3 q, out float d, out vec3 n)
 #endif
 #endif
     d += dot(n, q - (u_field_lo + (cell + 0.5) * u_voxel));
-}
-
-// v turned by ``angle`` about the unit axis k (Rodrigues).
-vec3 rotate(vec3 v, vec3 k, float angle)
-{
-    float c = cos(angle);
-    return v * c + cross(k, v) * sin(angle) + k * dot(k, v) * (1.0 - c);
-}
-
-struct Pose {
-    vec3 centre;    // where the pivot is
-    float angle;    // turned about u_spin.xyz
-    vec3 velocity;  // of the pivot
-};
-
-Pose object_pose(float t)
-{
-    Pose pose;
-    pose.centre = u_pose.xyz;
-    pose.velocity = vec3(0.0);
-    if (u_sway.w > 0.0) {
-        float w = 6.2831853 / u_sway.w;
-        pose.centre += u_sway.xyz * sin(w * t);
-        pose.velocity = u_sway.xyz * (w * cos(w * t));
-    }
-    pose.angle = u_spin.w * t;
-    return pose;
-}
-
-// World point to object space, and the field there brought back to world units.
-vec3 to_object(vec3 x, Pose pose)
-{
-    return rotate(x - pose.centre, u_spin.xyz, -pose.angle) / u_pose.w;
-}
-
-// The velocity of the object's surface at world point x.
-vec3 surface_velocity(vec3 x, Pose pose)
-{
-    return pose.velocity + cross(u_spin.xyz * u_spin.w, x - pose.centre);
 }

@@ -304,10 +304,15 @@ def _fallbacks(plan, resources):
 
 
 def _camera(camera):
+    """The scene's camera and the mouse's constants (``live/controls.py``'s, the window's)."""
     if camera is None:
         return None
+    from ..live.controls import DISTANCE_LIMITS, ELEVATION_LIMIT, ORBIT_RATE, WHEEL_STEP
+
     return {"eye": list(camera.eye), "target": list(camera.target), "up": list(camera.up),
-            "fov": camera.fov, "near": camera.near, "far": camera.far, "ortho": camera.ortho}
+            "fov": camera.fov, "near": camera.near, "far": camera.far, "ortho": camera.ortho,
+            "orbit_rate": ORBIT_RATE, "elevation_limit": ELEVATION_LIMIT,
+            "distance_limits": list(DISTANCE_LIMITS), "wheel_step": WHEEL_STEP}
 
 
 def _grip(grip):

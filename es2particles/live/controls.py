@@ -19,10 +19,10 @@ import numpy as np
 
 from ..errors import ParameterError
 
-ORBIT_RATE = 0.01  # radians a pixel of drag (the page's)
+ORBIT_RATE = 0.01  # radians a pixel of drag (the page takes these four with its camera)
 ELEVATION_LIMIT = 1.45  # radians from the level, either way (the page's)
 DISTANCE_LIMITS = (0.5, 50.0)  # metres from the target (the page's)
-WHEEL_STEP = 0.1  # a wheel notch scales the distance by exp(0.1) (the page: deltaY 100 * 0.001)
+WHEEL_STEP = 0.1  # a wheel notch scales the distance by exp(0.1) (the page: a notch is deltaY 100)
 TURN_STEP = math.radians(5.0)  # a key press turns the camera 5 degrees on the spot
 MOVE_STEP = 0.25  # and moves it a quarter metre along the floor
 RISE_STEP = 0.1  # or raises it a tenth of a metre

@@ -484,14 +484,16 @@
     }
     return {
       state, eye, forward, focal, viewProjection, depthRange,
-      orbit(dx, dy) {
+      orbit(dx, dy) {  // the window's constants (live/controls.py), serialised with the camera
         state.moved = true;
-        state.azimuth -= dx * 0.01;
-        state.elevation = Math.max(-1.45, Math.min(1.45, state.elevation + dy * 0.01));
+        state.azimuth -= dx * c.orbit_rate;
+        state.elevation = Math.max(-c.elevation_limit,
+                                   Math.min(c.elevation_limit, state.elevation + dy * c.orbit_rate));
       },
       zoom(factor) {
         state.moved = true;
-        state.radius = Math.max(0.5, Math.min(50, state.radius * factor));
+        const [lo, hi] = c.distance_limits;
+        state.radius = Math.max(lo, Math.min(hi, state.radius * factor));
       },
       // The ray [origin, direction] through pixel (x, y) of the picture, y down from the top
       // (live/controls.py: ViewCamera.ray).
@@ -945,7 +947,7 @@
     });
     canvas.addEventListener("wheel", (e) => {
       e.preventDefault();
-      camera.zoom(Math.exp(e.deltaY * 0.001));
+      camera.zoom(Math.exp(e.deltaY / 100 * plan.camera.wheel_step));  // 100: a notch's deltaY
       if (!playing) frame();
     }, { passive: false });
   }

@@ -31,6 +31,8 @@ def build_parser(argv=None):
                                      description="GPU particle systems, OpenGL ES 2.0 style, headless.")
     commands = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     info = commands.add_parser("info", help="print the GL context's capabilities")
+    info.add_argument("--json", action="store_true",
+                      help="print them as one JSON object (for scripts)")
     info.set_defaults(handler=_info)
     _add_scene_commands(commands, argv or ())
     if argv and len(argv) >= 2 and argv[0] in SCENE_COMMANDS \
@@ -323,7 +325,12 @@ def _info(args):
     from .gl.egl import open_context
 
     with open_context() as ctx:
-        print(ctx.caps)
+        if args.json:
+            import json
+
+            print(json.dumps(ctx.caps.as_dict(), indent=1))
+        else:
+            print(ctx.caps)
 
 
 def _report(args):

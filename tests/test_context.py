@@ -21,6 +21,70 @@ def test_capabilities_are_reported(gl):
         assert label in text
 
 
+# GLSL ES 1.00, section 4.5.2: the least each precision qualifier must give, as (log2 of the
+# range, bits of relative precision); an int's range only.
+LEAST = {"high float": (62, 16), "medium float": (14, 10), "low float": (1, 8),
+         "high int": (16, None), "medium int": (10, None), "low int": (8, None)}
+
+
+def test_info_reports_the_articles_table_as_text_and_json(gl):
+    """The shaders' precisions come from the context (glGetShaderPrecisionFormat): highp float
+    there is float32 (numpy's finfo: 23 bits, 2^127), every precision at least GLSL ES 1.00's
+    minimum; the article's extensions each get a row; ``info --json`` is one JSON object."""
+    import json
+    import subprocess
+    import sys
+
+    table = gl.caps.precision
+    f32 = np.finfo(np.float32)
+    assert table["fragment"]["high float"] == (f32.maxexp - 1, f32.maxexp - 1, f32.nmant)
+    assert gl.caps.fragment_highp
+    for shader in ("vertex", "fragment"):
+        for name, (range_bits, precision_bits) in LEAST.items():
+            lo, hi, bits = table[shader][name]
+            assert min(lo, hi) >= range_bits, (shader, name, table[shader][name])
+            assert precision_bits is None or bits >= precision_bits, (shader, name)
+    text = str(gl.caps)
+    for label in ("fragment float precision (high / medium / low)", "OES_texture_half_float",
+                  "EXT_color_buffer_half_float", "OES_rgb8_rgba8"):
+        assert label in text
+    out = subprocess.run([sys.executable, "-m", "es2particles", "info", "--json"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    assert report["precision"]["fragment"]["high float"] == {"range log2": [127, 127],
+                                                            "bits": 23}
+    assert set(report["article extensions"]) >= {"OES_texture_float", "OES_rgb8_rgba8"}
+    assert report["formats"]["rgba8"] == {"render target": True, "additive blend": True}
+
+
+def test_without_fragment_highp_packed_state_is_refused_in_one_line():
+    """The article's Tegra row: no highp float in fragment shaders. A 16-bit code cannot be
+    unpacked in mediump's 10 bits, so rgba8 is refused naming the float format, and auto takes
+    a float format."""
+    from es2particles.errors import CapabilityError
+    from es2particles.frame.settings import resolve_format
+    from es2particles.gl.context import Capabilities
+
+    tegra = {"vertex": {n: (127, 127, 23) for n in LEAST},
+             "fragment": {**{n: (15, 15, 10) for n in LEAST}, "high float": (0, 0, 0)}}
+    caps = Capabilities.assumed(probe_precision=lambda: tegra)
+    assert not caps.fragment_highp
+    with pytest.raises(CapabilityError, match=r"format 'rgba8' packs each value in 16 bits, "
+                       r"which fragment shaders without highp float cannot unpack \(this "
+                       r"context's best is mediump, 10 bits\): use --format rgba16f"):
+        resolve_format(caps, "rgba8")
+    assert resolve_format(caps, "rgba16f")[0] == "rgba16f"
+    float_less = Capabilities.assumed(probe_precision=lambda: tegra,
+                                      renderable={"rgba8": True})
+    with pytest.raises(CapabilityError):
+        resolve_format(float_less, "rgba8")
+    with pytest.raises(CapabilityError, match="--format auto: assumed renders to no state "
+                                              "format it can unpack"):
+        resolve_format(float_less, "auto")
+    assert resolve_format(Capabilities.assumed(), "rgba8")[0] == "rgba8"
+
+
 @pytest.mark.gl
 def test_no_context_says_what_to_install(monkeypatch):
     def no_gl(*args, **kwargs):

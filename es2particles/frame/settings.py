@@ -105,14 +105,22 @@ def parse_size(text, max_size):
 def resolve_format(caps, fmt):
     """The storage format to use and a note saying why: ``auto`` takes the most precise format
     the context can render to; a named one must be renderable (else CapabilityError)."""
+    packs = caps is None or caps.fragment_highp
     if fmt == "auto":
         for candidate in AUTO_ORDER:
-            if caps.renderable.get(candidate):
+            if caps.renderable.get(candidate) and (packs or candidate != "rgba8"):
                 return candidate, f"{candidate} (auto: the most precise renderable format)"
+        raise CapabilityError(f"--format auto: {caps.renderer} renders to no state format "
+                              f"{'' if packs else 'it can unpack '}(of {', '.join(AUTO_ORDER)})")
     if fmt not in FORMATS:
         raise ParameterError(f"format must be one of {sorted(FORMATS)} or 'auto', got {fmt!r}")
     if caps is not None and not caps.renderable.get(fmt):
         raise CapabilityError(f"format {fmt!r} cannot be rendered to on {caps.renderer}")
+    if fmt == "rgba8" and not packs:
+        bits = caps.precision["fragment"]["medium float"][2]
+        raise CapabilityError(f"format 'rgba8' packs each value in 16 bits, which fragment "
+                              f"shaders without highp float cannot unpack (this context's best "
+                              f"is mediump, {bits} bits): use --format rgba16f")
     return fmt, fmt
 
 

@@ -58,6 +58,7 @@ class Capabilities:
     extensions: frozenset = frozenset()
     probe_store_rule: object = field(default=None, repr=False, compare=False)
     probe_multiply_add: object = field(default=None, repr=False, compare=False)
+    probe_precision: object = field(default=None, repr=False, compare=False)
 
     @classmethod
     def assumed(cls, **changes):
@@ -113,6 +114,35 @@ class Capabilities:
         return self._multiply_add
 
     @property
+    def precision(self):
+        """The shaders' float and int precisions (``GLDevice.shader_precision``: shader ->
+        precision -> (log2 range low, high, bits)), or None where the context does not say:
+        asked the first time, then kept."""
+        if not hasattr(self, "_precision"):
+            self._precision = self.probe_precision() if self.probe_precision else None
+        return self._precision
+
+    @property
+    def fragment_highp(self):
+        """Whether fragment shaders have highp float (GLSL ES 1.00 leaves it optional: the
+        article's Tegra 2, 3 and 4 lack it); True where the context does not say."""
+        table = self.precision
+        return table is None or table["fragment"]["high float"][2] > 0
+
+    @property
+    def is_es(self):
+        """Whether this is an OpenGL ES context (its version string says so)."""
+        return self.version.startswith("OpenGL ES")
+
+    def article_extension(self, name):
+        """Whether the context has what ES extension ``name`` (one of :data:`ARTICLE_EXTENSIONS`)
+        gives: listed, on ES; core since desktop GL 3.0 (float and half float textures, their
+        filtering and render targets, RGBA8 renderbuffers) on a desktop context."""
+        if self.is_es:
+            return f"GL_{name}" in self.extensions or name in self.extensions
+        return self.version[:1].isdigit() and int(self.version[0]) >= 3
+
+    @property
     def fused_multiply_add(self):
         """True where the driver fuses a * b + c (NVIDIA's does; llvmpipe's does not)."""
         return self.multiply_add.startswith("fused")
@@ -139,7 +169,37 @@ class Capabilities:
                          f"{_yes(self.renderable.get(name))} / {_yes(self.blendable.get(name))}"))
         rows.append(("8-bit store of a float channel", self.store_rule))
         rows.append(("a * b + c in a shader", self.multiply_add))
+        core = "" if self.is_es else " (core in desktop GL 3.0+)"
+        for name in ARTICLE_EXTENSIONS:
+            rows.append((name, _yes(self.article_extension(name)) + core))
+        table = self.precision
+        for shader in ("vertex", "fragment"):
+            for kind in ("float", "int"):
+                label = f"{shader} {kind} precision (high / medium / low)"
+                if table is None:
+                    rows.append((label, "not reported by this context"))
+                    continue
+                rows.append((label, " / ".join(_precision(*table[shader][f"{p} {kind}"], kind)
+                                               for p in ("high", "medium", "low"))))
         return rows
+
+    def as_dict(self):
+        """The report for scripts (``info --json``): the rows' values, the precisions as
+        numbers, each format's flags."""
+        out = {label: value for label, value in self.lines()
+               if "precision" not in label and "render target" not in label
+               and label not in ARTICLE_EXTENSIONS}
+        out["point size range"] = [float(v) for v in self.point_size_range]
+        out["formats"] = {name: {"render target": bool(self.renderable.get(name)),
+                                 "additive blend": bool(self.blendable.get(name))}
+                          for name in TEXTURE_FORMATS}
+        out["precision"] = self.precision and {
+            shader: {name: {"range log2": [lo, hi], "bits": bits}
+                     for name, (lo, hi, bits) in kinds.items()}
+            for shader, kinds in self.precision.items()}
+        out["article extensions"] = {name: self.article_extension(name)
+                                     for name in ARTICLE_EXTENSIONS}
+        return out
 
     def __str__(self):
         width = max(len(label) for label, _ in self.lines())
@@ -148,6 +208,21 @@ class Capabilities:
 
 def _yes(flag):
     return "yes" if flag else "no"
+
+
+# The extensions the article's table names (OpenGL ES 2.0 names; core in desktop GL 3.0+).
+ARTICLE_EXTENSIONS = ("OES_rgb8_rgba8", "OES_texture_half_float", "OES_texture_half_float_linear",
+                      "EXT_color_buffer_half_float", "OES_texture_float",
+                      "OES_texture_float_linear")
+
+
+def _precision(lo, hi, bits, kind):
+    """One precision as the article's table gives it: the bits and the range, or absent."""
+    if lo == hi == bits == 0:
+        return "none"
+    if kind == "int":
+        return f"+-2^{hi}"
+    return f"{bits} bits, +-2^{hi}"
 
 
 class FormatFlags(dict):

@@ -69,6 +69,10 @@ class ActiveUniform:
     length: int = 1
 
 
+# glGetShaderPrecisionFormat's precision types, in the order of their enums (0x8DF0 on)
+PRECISIONS = ("low float", "medium float", "high float", "low int", "medium int", "high int")
+
+
 class GLDevice:
     """moderngl under a context: objects, draws, reads and writes, through one moderngl context."""
 
@@ -88,6 +92,25 @@ class GLDevice:
 
     def error(self):
         return self.mgl.error
+
+    def shader_precision(self):
+        """glGetShaderPrecisionFormat for each shader and precision (the article's table):
+        {"vertex"|"fragment": {"high float"|...|"low int": (log2 of the range's low end, of its
+        high end, bits of precision)}}; None where the call cannot be loaded. A precision the
+        shader lacks reads (0, 0, 0)."""
+        ints = ctypes.POINTER(ctypes.c_int)
+        call = self._gl_function("glGetShaderPrecisionFormat", ctypes.c_uint, ctypes.c_uint,
+                                 ints, ints)
+        if self._gl_calls.get("glGetShaderPrecisionFormat") is None:
+            return None
+        table = {}
+        for shader, shader_enum in (("vertex", 0x8B31), ("fragment", 0x8B30)):
+            table[shader] = {}
+            for i, name in enumerate(PRECISIONS):
+                span, bits = (ctypes.c_int * 2)(), ctypes.c_int()
+                call(shader_enum, 0x8DF0 + i, span, ctypes.byref(bits))
+                table[shader][name] = (span[0], span[1], bits.value)
+        return table
 
     def make_current(self):
         self.mgl.__enter__()
@@ -410,6 +433,9 @@ class RecordingDevice:
 
     def error(self):
         return "GL_NO_ERROR"
+
+    def shader_precision(self):
+        return None
 
     def make_current(self):
         pass

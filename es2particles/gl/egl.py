@@ -116,6 +116,7 @@ def probe_capabilities(ctx):
         extensions=frozenset(ctx.device.extensions()),
         probe_store_rule=lambda: _probe_store_rule(ctx),
         probe_multiply_add=lambda: _probe_multiply_add(ctx),
+        probe_precision=ctx.device.shader_precision,
     )
 
     def probe_format(fmt):

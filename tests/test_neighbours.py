@@ -42,11 +42,12 @@ void main()
 """
 
 
-def graph(tmp_path, h, bound=64, cell=None, box=None):
+def graph(tmp_path, h, bound=64, cell=None, box=None, dimensions=2):
     (tmp_path / "keep.frag").write_text(KEEP)
-    (tmp_path / "found.frag").write_text(FOUND)
+    (tmp_path / "found.frag").write_text(FOUND if dimensions == 2 else
+                                         FOUND.replace("vec2 p", "vec3 p").replace("vec2 d", "vec3 d"))
     g = PassGraph()
-    g.quantity("position", 0.0, 1.0)
+    g.quantity("position", 0.0, 1.0, components=dimensions)
     g.add("keep", str(tmp_path / "keep.frag"), writes="position", reads=["position"])
     g.neighbours("cells", "position", cell=cell or h, box=box, bound=bound)
     g.quantity("found", 0.0, 2.0 ** 24, components=4)
@@ -123,6 +124,56 @@ def test_particles_exactly_on_cell_boundaries(gl, tmp_path):
     assert np.array_equal(got, want)
 
 
+def test_3d_particles_find_exactly_the_float64_neighbours(gl, tmp_path):
+    """A 3D grid (3 x 3 x 3 cells a point, nine runs): 2^15 particles at random in the unit
+    cube, h = 1/16 (about 4 neighbours each; 3D keys), and 2^11 more crowded into one cell of an
+    otherwise empty grid: every particle's set equals the float64 one, pair for pair."""
+    rng = np.random.default_rng(11)
+    points = rng.integers(0, 4097, (2 ** 15, 3)) / 4096.0
+    crowd = (2048 + rng.integers(0, 150, (2 ** 11, 3))) / 4096.0  # in cell (8, 8, 8) of 1/16
+    points = np.concatenate([crowd, points])  # the crowd first: its index sums stay < 2^24
+    h = 1 / 16
+    got, worst, sim = found(gl, graph(tmp_path, h, bound=4096, dimensions=3), points)
+    want = reference(points, h)
+    assert want[2 ** 11:, 0].mean() > 4 and want[:2 ** 11, 0].min() > 2 ** 11
+    bad = np.flatnonzero((got != want).any(axis=1))
+    assert bad.size == 0, f"{bad.size} particles differ, first {bad[:5]}: {got[bad[:3]]} " \
+                          f"against {want[bad[:3]]}"
+    assert 2 ** 11 < worst <= 4096
+
+
+def test_3d_lattice_on_cell_boundaries_and_its_table(gl, tmp_path):
+    """A 32^3 lattice of spacing 1/32 under cells of 1/16 (every other plane on a boundary; the
+    6 lattice points at exactly h = 1/16 left out by the strict test): each interior particle
+    finds its 3 x 3 x 3 block of 27. The table (a texel a cell, row k H + j) holds each cell's
+    first slot: its runs are numpy's bincount of the cells, (k H + j) W + i."""
+    i, j, k = (a.ravel() for a in np.meshgrid(np.arange(32), np.arange(32), np.arange(32),
+                                              indexing="ij"))
+    points = np.stack([i, j, k], 1) / 32.0
+    h = 1 / 16
+    got, _, sim = found(gl, graph(tmp_path, h, cell=1 / 16, dimensions=3), points)
+    want = reference(points, h)
+    interior = np.all((np.stack([i, j, k], 1) > 1) & (np.stack([i, j, k], 1) < 30), axis=1)
+    assert np.all(want[interior, 0] == 27)
+    assert np.array_equal(got, want)
+    cells = np.minimum(points * 16, 15).astype(np.int64)  # the box is [0, 1]: 16 cells a side
+    with Simulation(gl, graph(tmp_path, h, cell=1 / 16, dimensions=3), len(points)) as rgba8:
+        rgba8.upload("position", points)
+        rgba8.run(1)
+        first = rgba8.neighbour_table("cells")
+    assert first.shape == (16 * 16, 16)
+    counts = np.diff(np.append(first.ravel(), len(points)))
+    want_counts = np.bincount((cells[:, 2] * 16 + cells[:, 1]) * 16 + cells[:, 0],
+                              minlength=16 ** 3)
+    assert np.array_equal(counts, want_counts)
+
+
+def test_a_3d_row_over_the_bound_names_its_cell(gl, tmp_path):
+    with pytest.raises(GraphError, match=r"neighbour grid 'cells': the cells around \(\d+, "
+                                         r"\d+, \d+\) hold 65 particles in a row of 3"):
+        found(gl, graph(tmp_path, 1 / 16, dimensions=3), np.full((65, 3), 0.5))
+
+
 def test_the_table_holds_each_cells_first_slot_in_rgba8(gl, tmp_path):
     """RGBA8 state and order (the ES 2.0 path): the table's runs are each cell's count, and the
     order the particles of each cell: counts against numpy's bincount of the cells of the
@@ -165,6 +216,14 @@ def test_the_plan_states_the_grid_its_bound_and_cost(tmp_path):
         "pass 'keep'", "cells key", "cells sort", "cells table", "pass 'found'"]
 
 
+def test_the_plan_states_a_3d_grid_and_its_nine_rows(tmp_path):
+    plan = plan_graph(graph(tmp_path, 1 / 16, bound=32, dimensions=3), 2 ** 14)
+    text = "\n".join(plan.describe())
+    assert "neighbour grid cells: 16x16x16 cells of 0.0625 over position" in text
+    assert "visits 9 rows of 3 cells, at most 32 particles a row (288 a point)" in text
+    assert plan.resources["cells"].size == (16, 256)
+
+
 def test_more_cells_than_the_keys_hold_is_refused_before_any_gl(tmp_path):
     """2^20 particles leave an RGBA8 order 12 key bits: 4096 cells; a 128 x 128 grid is
     refused, naming the ways out."""
@@ -186,7 +245,7 @@ def test_a_grid_built_from_this_step_follows_its_writers_and_misuse_is_named(tmp
     assert [p.name for p in g.plan(["position"]).passes] == ["move"]  # left out: unread
     with pytest.raises(GraphError, match="reads neighbour grid 'cels', which is not declared"):
         g.add("typo", "x.frag", writes="n", neighbours="cels")
-    with pytest.raises(GraphError, match="'of' must be a declared quantity of 2 components"):
+    with pytest.raises(GraphError, match="'of' must be a declared quantity of 2 or 3 components"):
         g.neighbours("more", "n", cell=0.1)
     with pytest.raises(ParameterError, match="cell must be > 0"):
         g.neighbours("zero", "position", cell=0.0)

@@ -192,7 +192,7 @@ class Plan:
                 n = self.neighbours[p.builds]
                 lines.append(f"  {i}. {p.name}: neighbour grid of {n.of} "
                              f"({'this step' if n.this_step else 'last step'}) over "
-                             f"{n.grid.shape[0]}x{n.grid.shape[1]} cells: a key pass, a sort "
+                             f"{'x'.join(map(str, n.grid.shape))} cells: a key pass, a sort "
                              f"by cell, a table of each cell's first particle")
                 continue
             mine, written = versions[p.name]
@@ -310,10 +310,11 @@ class PassGraph:
 
     def neighbours(self, name, of, cell, box=None, bound=64, this_step=False):
         """Declare neighbour grid ``name``: square cells of side ``cell`` over ``box`` ((x0, y0),
-        (x1, y1); default the range of ``of``, grown to whole cells) holding the particles by
-        the cell of their quantity ``of`` (2 components, on the particles), last step's value,
-        or this step's (``this_step``: built after ``of``'s writers). A pass declared with
-        ``neighbours=name`` visits, for a point, the particles of the 3 x 3 cells around it:
+        (x1, y1), or in 3D ((x0, y0, z0), (x1, y1, z1)); default the range of ``of``, grown to
+        whole cells) holding the particles by the cell of their quantity ``of`` (2 or 3
+        components, on the particles: the grid's dimensions), last step's value, or this
+        step's (``this_step``: built after ``of``'s writers). A pass declared with
+        ``neighbours=name`` visits, for a point, the particles of the 3 x 3 (x 3) cells around it:
         every particle within ``cell`` of the point, and others (test the distance). A point
         outside the box takes the nearest cell, as particles outside it are held: the search
         stays exact. ``bound``: the most particles a pass's loop visits in a row of 3 cells
@@ -325,9 +326,9 @@ class PassGraph:
                              self.neighbour_grids else f"neighbour grid {name!r}: a quantity "
                              "has that name")
         source = self.quantities.get(of)
-        if source is None or source.domain is not None or source.components != 2:
+        if source is None or source.domain is not None or source.components not in (2, 3):
             raise GraphError(f"neighbour grid {name!r}: 'of' must be a declared quantity of 2 "
-                             f"components on the particles, got {of!r}"
+                             f"or 3 components on the particles, got {of!r}"
                              + ("" if source is None else f" ({source.components} components"
                                 f"{', on grid ' + source.domain.name if source.domain else ''})"))
         n = NeighbourGrid.over(name, source, cell, box, bound, this_step)

@@ -391,8 +391,13 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
     builder.format_note, builder.rounding = note, rounding
     builder.layouts = {name: grid.layout(caps.max_texture_size)
                        for name, grid in plan.grids.items()}
-    for n in plan.neighbours.values():
-        n.grid.layout(caps.max_texture_size)  # its table: one texel a cell
+    for n in plan.neighbours.values():  # its table: one texel a cell
+        if max(n.table_size) > caps.max_texture_size:
+            raise ParameterError(f"neighbour grid {n.name!r}: its table of "
+                                 f"{'x'.join(map(str, n.grid.shape))} cells is "
+                                 f"{n.table_size[0]}x{n.table_size[1]} texels; this context's "
+                                 f"textures are at most {caps.max_texture_size} a side: use "
+                                 "larger cells")
 
     def layout_of(quantity):
         return layout if quantity.domain is None else builder.layouts[quantity.domain.name]

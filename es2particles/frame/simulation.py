@@ -183,7 +183,7 @@ class Simulation:
 
     def neighbour_table(self, name):
         """Neighbour grid ``name``'s table after the last step: each cell's first slot in the
-        order sorted by cell, (H, W) int64, row 0 at the bottom (a cell's particles are its
+        order sorted by cell, (H, W) int64 ((D H, W) in 3D, row k H + j), row 0 at the bottom (a cell's particles are its
         slots up to the next cell's first; the last cell's end at the particle count)."""
         from ..gl.context import numpy_dtype
         from .neighbours import decode_table
@@ -194,7 +194,7 @@ class Simulation:
                                  f"(has: {', '.join(self.plan.neighbours) or 'none'})")
         r = self.executor.plan.resources[name]
         texels = np.frombuffer(self.executor.read(name), numpy_dtype(r.format)).reshape(-1, 4)
-        w, h = self.plan.neighbours[name].grid.shape
+        w, h = self.plan.neighbours[name].table_size
         return decode_table(texels, r.format).reshape(h, w)
 
     def check_neighbours(self):

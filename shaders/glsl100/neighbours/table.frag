@@ -11,7 +11,7 @@ precision highp sampler2D;
 
 uniform sampler2D u_order;        // the order, sorted by cell
 uniform vec2 u_order_size;        // its width and height in slots (powers of two)
-uniform vec2 u_neighbour_size;    // the grid's W and H in cells
+uniform vec2 u_neighbour_size;    // the table's W and H in cells (3D: W and H D, row k H + j)
 uniform float u_levels;           // log2(slots) + 1: the search's steps
 varying vec2 v_uv;
 

@@ -420,7 +420,8 @@ def boids_numpy_step(x, v, p):
     n = len(x)
 
     def total(mask, values):
-        return np.stack([np.bincount(i[mask], values[mask, k], n) for k in range(2)], 1)
+        return np.stack([np.bincount(i[mask], values[mask, k], n)
+                         for k in range(x.shape[1])], 1)
 
     sep = (r < rs) & (r > 0)
     away = -total(sep, d / np.where(sep, r * r, 1.0)[:, None])
@@ -429,7 +430,7 @@ def boids_numpy_step(x, v, p):
     steer = ws * away * rs
     steer += np.where(count_a > 0, wa * (total(r < ra, v[j]) / np.maximum(count_a, 1) - v), 0.0)
     steer += np.where(count_c > 0, wc * total(r < rc, d) / np.maximum(count_c, 1) / rc * hi, 0.0)
-    box = np.asarray(p.box, float)
+    box = np.asarray(p.extent, float)
     wall = (x <= rc).astype(float) - (x >= box - rc).astype(float)
     v = v + p.dt * (steer + wall * hi / max(rc, p.dt * hi))
     s = np.linalg.norm(v, axis=1, keepdims=True)
@@ -437,22 +438,23 @@ def boids_numpy_step(x, v, p):
     return np.clip(x + p.dt * v, 0.0, box), v
 
 
-def boids_section(ctx, sizes, repeats, emit):
+def boids_section(ctx, sizes, repeats, emit, dimensions=2):
     """The boids step (a neighbour grid: key pass, sort by cell, cell table; then the rules'
-    pass over 3 rows of cells, and the position pass) at the default density (16,384 boids in a
-    4 x 4 box, the box grown with N), against the neighbour grid's build alone and a numpy step
-    whose pairs come from scipy's k-d tree."""
+    pass over 3 rows of cells, 9 in 3D, and the position pass) at the default density (16,384
+    boids in a 4 x 4 box, or a unit cube in 3D, the box grown with N), against the neighbour
+    grid's build alone and a numpy step whose pairs come from scipy's k-d tree."""
     from es2particles.frame.simulation import Simulation
     from es2particles.scenes.boids import Boids
 
+    emit(f"{dimensions}D:")
     emit("| N | step ms (min-max) | grid build ms | build share | numpy + k-d tree ms | "
          "numpy/ours |")
     emit("|---|---|---|---|---|---|")
     growth = []
     for log2n in sizes:
         count = 2 ** log2n
-        side = 4.0 * (count / 2 ** 14) ** 0.5
-        scene = Boids(box=(side, side))
+        side = (4.0 if dimensions == 2 else 1.0) * (count / 2 ** 14) ** (1 / dimensions)
+        scene = Boids(dimensions=dimensions, box=(side,) * dimensions)
         with Simulation(ctx, scene.graph(ctx.caps), count) as sim:
             scene.initialise(sim, np.random.default_rng(1))
             sim.run(20)
@@ -463,7 +465,7 @@ def boids_section(ctx, sizes, repeats, emit):
         emit(f"| 2^{log2n} | {step[0] * 1e3:.1f} ({step[1] * 1e3:.1f}-{step[2] * 1e3:.1f}) | "
              f"{grid[0] * 1e3:.1f} | {grid[0] / step[0]:.0%} | {peer[0] * 1e3:.1f} | "
              f"{peer[0] / step[0]:.2f} |")
-    emit_scaling(emit, "boids", growth)
+    emit_scaling(emit, f"{dimensions}D boids", growth)
 
 
 def liquid_numpy_step(x, v, p, h, dt):
@@ -1090,6 +1092,8 @@ def main(argv=None):
                 continue
             if scene == "boids":
                 boids_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit)
+                boids_section(ctx, [12, 14] if args.quick else [12, 14, 16], args.repeats, emit,
+                              dimensions=3)
                 continue
             if scene == "smoke":
                 smoke_section(ctx, [14, 16] if args.quick else [14, 15, 16, 17, 18],

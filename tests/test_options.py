@@ -30,6 +30,7 @@ VALUES = {
     "--shapes": {"confetti": "star"},
     "--sort": {"smoke": "off"},
     "--grid": {"wind": "32x48"},
+    "--box": {"boids": "3,3"},
     "--walls": {"wind": "slip,slip,slip,slip"},
     "--obstacle": {"wind": "box:0.5,0.5,0.1,0.1"},
     "--gradient": "ice",

@@ -6,29 +6,32 @@ import numpy as np
 
 
 def pairs_within(points, h):
-    """(i, j, r) of every unordered pair i < j of ``points`` (n, 2) with distance r < h."""
+    """(i, j, r) of every unordered pair i < j of ``points`` (n, 2) or (n, 3) with distance
+    r < h."""
+    import itertools
+
     x = np.asarray(points, np.float64)
-    n = len(x)
-    cells = np.floor((x - x.min(axis=0)) / h).astype(np.int64)
-    width = int(cells[:, 0].max()) + 3 if n else 3
-    key = (cells[:, 1] + 1) * width + cells[:, 0] + 1
+    n, dims = x.shape
+    cells = np.floor((x - x.min(axis=0)) / h).astype(np.int64) + 1  # a cell of margin
+    sides = (cells.max(axis=0) + 2) if n else np.full(dims, 3)
+    strides = np.cumprod(np.concatenate([[1], sides[:-1]]))
+    key = cells @ strides
     order = np.argsort(key, kind="stable")
     sorted_keys = key[order]
     out = []
-    for dy in (-1, 0, 1):
-        for dx in (-1, 0, 1):
-            wanted = key + dy * width + dx
-            lo = np.searchsorted(sorted_keys, wanted, "left")
-            hi = np.searchsorted(sorted_keys, wanted, "right")
-            counts = hi - lo
-            i = np.repeat(np.arange(n), counts)
-            starts = np.repeat(lo - np.cumsum(counts) + counts, counts)
-            j = order[np.arange(counts.sum()) + starts]
-            keep = i < j
-            out.append((i[keep], j[keep]))
+    for offset in itertools.product((-1, 0, 1), repeat=dims):
+        wanted = key + np.asarray(offset) @ strides
+        lo = np.searchsorted(sorted_keys, wanted, "left")
+        hi = np.searchsorted(sorted_keys, wanted, "right")
+        counts = hi - lo
+        i = np.repeat(np.arange(n), counts)
+        starts = np.repeat(lo - np.cumsum(counts) + counts, counts)
+        j = order[np.arange(counts.sum()) + starts]
+        keep = i < j
+        out.append((i[keep], j[keep]))
     i = np.concatenate([a for a, _ in out])
     j = np.concatenate([b for _, b in out])
-    r = np.hypot(*(x[j] - x[i]).T) if len(i) else np.zeros(0)
+    r = np.linalg.norm(x[j] - x[i], axis=1) if len(i) else np.zeros(0)
     inside = r < h
     return i[inside], j[inside], r[inside]
 

@@ -1,16 +1,28 @@
 #version 100
-// Weakly compressible SPH (es2particles/scenes/sph.py), 2D, SI units, one define a pass:
+// Weakly compressible SPH (es2particles/scenes/sph.py), 2D or 3D (SPH_3D), SI units, one define a
+// pass:
 // - DENSITY: rho_i = sum_j m W(r_ij), itself included (the Wendland C2 kernel, support 2h);
 // - ACCELERATION: the velocity after dt of
 //     a_i = g - sum_j m (p_i / rho_i^2 + p_j / rho_j^2 + Pi_ij) grad W(r_ij),
 //   p = max(B ((rho / rho0)^7 - 1), 0) (Tait, without tension), Pi_ij Monaghan's artificial viscosity for approaching
 //   pairs; a wall within the box's edge turns the velocity's normal part back by u_restitution;
+//   u_gravity and u_box have a component a dimension;
 // - POSITION: x + dt v, held in the box.
 
 const float PI = 3.141592653589793;
+#ifdef SPH_3D
+#define VEC vec3
+// Wendland C2 in 3D: 21 / (16 pi h^3), and its slope's -105 / (16 pi h^4)
+#define KERNEL_NORM (21.0 / (16.0 * PI * u_h * u_h * u_h))
+#define SLOPE_NORM (-105.0 / (16.0 * PI * u_h * u_h * u_h * u_h))
+#else
+#define VEC vec2
+#define KERNEL_NORM (7.0 / (4.0 * PI * u_h * u_h))
+#define SLOPE_NORM (-35.0 / (4.0 * PI * u_h * u_h * u_h))
+#endif
 
 #ifdef NEIGHBOUR_BOUND
-// Wendland C2 in 2D, support 2h: W(q) = 7 / (4 pi h^2) (1 - q/2)^4 (2q + 1), q = r / h.
+// Wendland C2, support 2h: W(q) = KERNEL_NORM (1 - q/2)^4 (2q + 1), q = r / h (2D: 7 / (4 pi h^2)).
 float kernel(float r)
 {
     float q = r / u_h;
@@ -18,10 +30,10 @@ float kernel(float r)
         return 0.0;
     }
     float t = 1.0 - 0.5 * q;
-    return 7.0 / (4.0 * PI * u_h * u_h) * t * t * t * t * (2.0 * q + 1.0);
+    return KERNEL_NORM * t * t * t * t * (2.0 * q + 1.0);
 }
 
-// dW/dr: -35 / (4 pi h^3) q (1 - q/2)^3.
+// dW/dr: SLOPE_NORM q (1 - q/2)^3 (2D: -35 / (4 pi h^3)).
 float kernel_slope(float r)
 {
     float q = r / u_h;
@@ -29,7 +41,7 @@ float kernel_slope(float r)
         return 0.0;
     }
     float t = 1.0 - 0.5 * q;
-    return -35.0 / (4.0 * PI * u_h * u_h * u_h) * q * t * t * t;
+    return SLOPE_NORM * q * t * t * t;
 }
 
 #endif
@@ -45,7 +57,7 @@ float pressure(float rho)
 
 void main()
 {
-    vec2 x = read_position(v_uv);
+    VEC x = read_position(v_uv);
 #ifdef DENSITY
     float rho = 0.0;
     vec2 other;
@@ -55,13 +67,13 @@ void main()
     write_rho(rho);
 #endif
 #ifdef ACCELERATION
-    vec2 v = read_velocity(v_uv);
+    VEC v = read_velocity(v_uv);
     float rho = read_rho(v_uv);
     float own = pressure(rho) / (rho * rho);
-    vec2 a = u_gravity;
+    VEC a = u_gravity;
     vec2 other;
     FOR_EACH_NEIGHBOUR(x, other) {
-        vec2 d = x - read_position(other);  // from j to i
+        VEC d = x - read_position(other);  // from j to i
         float r = length(d);
         if (r > 0.0 && r < 2.0 * u_h && neighbour_other(other)) {
             float rho_j = read_rho(other);
@@ -82,9 +94,14 @@ void main()
     if ((x.y <= 0.0 && v.y < 0.0) || (x.y >= u_box.y && v.y > 0.0)) {
         v.y *= -u_restitution;
     }
+#ifdef SPH_3D
+    if ((x.z <= 0.0 && v.z < 0.0) || (x.z >= u_box.z && v.z > 0.0)) {
+        v.z *= -u_restitution;
+    }
+#endif
     write_velocity(v);
 #endif
 #ifdef POSITION
-    write_position(clamp(x + u_dt * read_velocity(v_uv), vec2(0.0), u_box));
+    write_position(clamp(x + u_dt * read_velocity(v_uv), VEC(0.0), u_box));
 #endif
 }

@@ -226,7 +226,9 @@ def _note_sparse(pipeline):
     if "density" not in pipeline.plan.resources:
         return
     per_pixel = pipeline.sim.count / (pipeline.size[0] * pipeline.size[1])
-    point = float(pipeline.settings.get("point_size", pipeline.scene.defaults.point_size))
+    from .frame.settings import resolve
+
+    point = float(resolve(pipeline.settings, pipeline.scene.defaults, "point_size"))
     if per_pixel * point * point < 0.25:  # the share of the pixels the points could cover
         print(f"es2particles: note: {pipeline.sim.count} particles of {point:g} pixels on "
               f"{pipeline.size[0]}x{pipeline.size[1]} pixels cover at most "
@@ -540,7 +542,7 @@ def run_of(args):
 
     from .errors import ParameterError
     from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
-    from .render.post import Bloom
+    from .frame.settings import Bloom
     from .run import Run, read_run
 
     base = Run(args.scene)

@@ -134,19 +134,16 @@ def write_run(run, scene, path):
 def resolved_settings(settings, scene):
     """The frame settings ``scene`` uses, each its value in ``settings`` or its default, as a
     run file writes them (the gradient 'none' where it is off, bloom a table or false)."""
-    from .frame.settings import COMMON_SETTINGS, SETTINGS
-    from .render.post import Bloom
+    from .frame.settings import COMMON_SETTINGS, resolve
 
-    defaults = scene.defaults
     out = {}
     for name in COMMON_SETTINGS + tuple(scene.rendering().settings):
+        value = resolve(settings, scene.defaults, name)
         if name == "bloom":
-            bloom = settings.get("bloom", Bloom())
-            out["bloom"] = False if bloom is None else {
-                "threshold": bloom.threshold, "radius": bloom.radius,
-                "intensity": bloom.intensity}
+            out["bloom"] = False if value is None else {
+                "threshold": value.threshold, "radius": value.radius,
+                "intensity": value.intensity}
             continue
-        value = settings.get(name, getattr(defaults, name, SETTINGS[name].default))
         if name == "gradient" and value is None:
             value = "none"
         if name == "size" and not isinstance(value, str):
@@ -159,7 +156,7 @@ def settings_from_mapping(mapping, where, scene=None):
     """The :class:`FrameSettings` of a run file's [settings] table (for ``scene``, a scene
     class: the particle count's range is its own)."""
     from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
-    from .render.post import Bloom
+    from .frame.settings import Bloom
 
     known = [n for n in SETTINGS if n not in BLOOM_PARTS] + ["bloom"]
     given = {}

@@ -17,6 +17,7 @@ steps) on llvmpipe here.
 import numpy as np
 
 from ..errors import CapabilityError, ParameterError, check_range
+from ..frame.settings import resolve
 
 SHARE = 2 ** 22  # particles in a share
 MAX_PARTICLES = 2 ** 36  # of a shared still: 16384 shares
@@ -65,7 +66,7 @@ def share_counts(ctx, run, share, count):
         counts = np.frombuffer(ctx.read(density), np.float32).reshape(h, w, channels)[..., 0]
         counts = counts.copy()
     if counts.max() >= EXACT:
-        accumulate = run.settings.get("accumulate", 1)
+        accumulate = resolve(run.settings, None, "accumulate")
         raise ParameterError(f"a pixel got {counts.max():.0f} samples of one share, beyond the "
                              f"2^24 a float32 count holds exactly (the attractor collapses onto "
                              f"few pixels): lower --accumulate (now {accumulate})")
@@ -88,20 +89,19 @@ def tone_map(ctx, run, total, particles):
     from ..frame.executor import Executor
     from ..frame.pipeline import read_rgb
     from ..frame.plan import PlanBuilder, Resource
-    from ..render.post import Bloom, plan_post
+    from ..render.post import plan_post
 
     h, w = total.shape
-    settings = run.settings
-    intensity = float(settings.get("intensity", 1.0))
-    accumulate = settings.get("accumulate", 1)
+    scene = run.make_scene()
+    b = PlanBuilder(run.scene, run.settings, ctx.caps, scene.rendering().settings,
+                    scene.defaults)
+    intensity = float(b.setting("intensity"))
     density = (total * intensity).astype(np.float32)
-    b = PlanBuilder(run.scene, settings, ctx.caps)
     b.resource(Resource("density", "image", (w, h), "r32f", linear=True, data=density,
                         what="the shares' summed counts"))
-    present = plan_post(b, "density", particles * intensity * accumulate / (w * h),
-                        settings.get("exposure", 4.0),
-                        settings.get("gradient", run.scene_class().defaults.gradient),
-                        settings.get("bloom", Bloom()), run.make_scene().rendering().background)
+    present = plan_post(b, "density", particles * intensity * b.setting("accumulate") / (w * h),
+                        b.setting("exposure"), b.setting("gradient"), b.setting("bloom"),
+                        scene.rendering().background)
     with Executor(ctx, b.finish(present=present)) as executor:
         return read_rgb(ctx, executor.render())
 

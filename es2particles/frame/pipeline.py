@@ -17,7 +17,7 @@ from ..io.nesting import check_nesting
 from . import memory
 from .executor import Executor
 from .plan import PlanBuilder, Resource, plan_frame
-from .settings import DEFAULT, Defaults, FrameSettings, frames_independent, parse_size
+from .settings import DEFAULT, Defaults, FrameSettings, frames_independent, parse_size, resolve
 from .simulation import Simulation
 
 STEPS_LIMIT = 2 ** 53  # a saved step count beyond any run's (float64 counts it exactly)
@@ -234,7 +234,7 @@ class Pipeline:
             self._read = read_rgb(self.ctx, self.final)  # image() gives it: one read a frame
             if np.array_equal(bare, self._read):
                 warnings.warn(f"frame {frame}: " + self.plan.rendering.unlit_message(
-                    self.settings.get("point_size", self.scene.defaults.point_size), self.size,
+                    resolve(self.settings, self.scene.defaults, "point_size"), self.size,
                     env.camera),
                     NothingDrawnWarning, stacklevel=2)
         return self.final
@@ -450,10 +450,11 @@ class Renderer:
         self.executor = None
         self.ctx, self.rendering, self.sim = ctx, rendering, sim
         settings = settings_of(settings, **given)
-        b = PlanBuilder("rendering", settings, ctx.caps, rendering.settings)
+        defaults = defaults or Defaults()
+        b = PlanBuilder("rendering", settings, ctx.caps, rendering.settings, defaults)
         b.graph_plan, b.layout, b.format = sim.plan, sim.layout, sim.fmt
         b.format_note, b.rounding = sim.format_note, sim.rounding
-        b.size = parse_size(b.setting("size", (1024, 1024)), ctx.caps.max_texture_size)
+        b.size = parse_size(b.setting("size"), ctx.caps.max_texture_size)
         for name, buffer in sim.buffers.items():
             q = buffer.quantity
             b.resource(Resource(name, "state", sim.layout.size, buffer.fmt, parts=buffer.parts,
@@ -473,7 +474,7 @@ class Renderer:
                                  f"{rendering.kind})")
         rendering.check_settings({n: getattr(settings, n) for n in settings.given()
                                   if n in rendering.settings})
-        present = rendering.plan(b, defaults or Defaults())
+        present = rendering.plan(b, defaults)
         self.plan = b.finish(present=present, size=b.size, motion=motion)
         self.size = b.size
         self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))

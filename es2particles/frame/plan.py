@@ -35,7 +35,7 @@ from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import Motion
 from .settings import (COMMON_SETTINGS, MAX_STEPS, FrameSettings, check_rounding,
-                       check_settings, parse_size, parse_trails, resolve_format,
+                       check_settings, parse_size, parse_trails, resolve, resolve_format,
                        scene_rendering)
 from .state import Layout
 
@@ -263,8 +263,9 @@ class PlanBuilder:
     vertex data and stages, with names checked unique; which settings were used; what was
     switched off."""
 
-    def __init__(self, scene_name, settings, caps, uses=()):
+    def __init__(self, scene_name, settings, caps, uses=(), defaults=None):
         self.scene_name, self.settings, self.caps = scene_name, settings, caps
+        self.defaults = defaults  # the scene's Defaults, where a setting was not given
         self.uses = set(COMMON_SETTINGS) | set(uses)
         self.resources, self.vertices, self.stages = {}, {}, []
         self.left_out, self.notes = [], []
@@ -283,13 +284,14 @@ class PlanBuilder:
                          accumulate=self.accumulate, left_out=self.left_out, notes=self.notes,
                          **more)
 
-    def setting(self, name, default):
-        """Setting ``name`` (its default where it was not given): one the rendering declares it
-        uses (``Rendering.settings``), or every frame's."""
+    def setting(self, name):
+        """Setting ``name``, resolved (:func:`~es2particles.frame.settings.resolve`: given, else
+        the scene's default, else the framework's): one the rendering declares it uses
+        (``Rendering.settings``), or every frame's."""
         if name not in self.uses:
             raise GraphError(f"the rendering reads setting {name!r} but does not declare it "
                              f"(Rendering.settings: {', '.join(sorted(self.uses))})")
-        return self.settings.get(name, default)
+        return resolve(self.settings, self.defaults, name)
 
     def resource(self, resource):
         if resource.name in self.resources:
@@ -519,22 +521,22 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     rendering = scene_rendering(scene, settings.particles)
     check_settings(settings, scene, rendering)
     defaults = scene.defaults
-    b = PlanBuilder(scene.name, settings, caps, rendering.settings)
-    size = parse_size(b.setting("size", (1024, 1024)), caps.max_texture_size)
-    steps = int(check_range("steps", b.setting("steps", defaults.steps), 0, MAX_STEPS,
+    b = PlanBuilder(scene.name, settings, caps, rendering.settings, defaults)
+    size = parse_size(b.setting("size"), caps.max_texture_size)
+    steps = int(check_range("steps", b.setting("steps"), 0, MAX_STEPS,
                             integer=True))
-    seed = b.setting("seed", 0)
-    graph = scene_graph(scene, caps, b.setting("particles", defaults.particles))
+    seed = b.setting("seed")
+    graph = scene_graph(scene, caps, b.setting("particles"))
     rendering.check_reads(scene, graph)
     b.size = size
     outputs = tuple(dict.fromkeys(tuple(rendering.reads) + tuple(getattr(scene, "saves", ()))))
-    trails, value = parse_trails(b.setting("trails", "off"))  # the fade's opacity, ribbons' K
+    trails, value = parse_trails(b.setting("trails"))  # the fade's opacity, ribbons' K
     if trails == "ribbons" and "life" in graph.quantities and graph.writer("life") is not None:
         outputs = tuple(dict.fromkeys(outputs + ("life",)))  # a ribbon ends where a life does
-    count = b.setting("particles", defaults.particles) or None  # 0: the grids alone
+    count = b.setting("particles") or None  # 0: the grids alone
     count = count if graph.quantities else None
-    plan_simulation(b, graph, outputs, count, b.setting("format", "rgba8"),
-                    b.setting("rounding", defaults.rounding))
+    plan_simulation(b, graph, outputs, count, b.setting("format"),
+                    b.setting("rounding"))
     present = rendering.plan(b, defaults)
     if trails != "off":
         from .trails import plan_trails
@@ -551,7 +553,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     motion=scene.motion() if rendering.has_camera else None,
                     settings={"seed": seed, "share": settings.share},
                     animation=scene.frame_uniforms,
-                    dt=scene.time_step(b.setting("particles", defaults.particles)),
+                    dt=scene.time_step(b.setting("particles")),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
 

@@ -55,7 +55,7 @@ class FrameSettings:
     an error naming it, never silently ignored.
 
     ``gradient``: a ramp (see ``render.ramps``) or None (grey); ``bloom``: a
-    :class:`~es2particles.render.post.Bloom` or None (off). ``share``: which share of a larger
+    :class:`Bloom` or None (off). ``share``: which share of a larger
     still this is (``cluster/shares.py``)."""
 
     particles: object = DEFAULT
@@ -191,6 +191,24 @@ SETTINGS = {d.name: d for d in (
 BLOOM_PARTS = ("bloom_threshold", "bloom_radius", "bloom_intensity")
 
 
+@dataclass(frozen=True)
+class Bloom:
+    """The bloom setting's value: luminance threshold in [0, 1], blur radius (sigma in [0.5, 4]
+    texels of the half-resolution level; the quarter level doubles it), and how much glow is
+    added; each part's default and range is its declaration's in :data:`SETTINGS`."""
+
+    # 0.2: the article's glow shows (21% of the de Jong still's pixels change, 0.6% saturate);
+    # at 0.6, above 99.9% of the pixels, bloom changed 0.04% and the glow was invisible.
+    threshold: float = SETTINGS["bloom_threshold"].default
+    radius: float = SETTINGS["bloom_radius"].default
+    intensity: float = SETTINGS["bloom_intensity"].default
+
+    def __post_init__(self):  # radius at most 4: the 12 taps of blur.frag cover 3 sigma
+        for part in ("threshold", "radius", "intensity"):
+            object.__setattr__(self, part, SETTINGS[f"bloom_{part}"].convert(
+                getattr(self, part), f"bloom {part}"))
+
+
 MAX_RIBBON = 64  # positions a ribbon keeps, at most
 
 
@@ -229,7 +247,7 @@ def _inert_state_setting(scene, settings, quantities):
     formats its ``quantities`` (its pass graph's, with no context) take in the format given
     (``Quantity.format_in``); None if each acts. A quantity declared 32-bit is kept so in rgba8
     and rgba16f alike, and 32-bit packed or float state is always rounded to the nearest value."""
-    given, fmt = settings.given(), settings.get("format", "rgba8")
+    given, fmt = settings.given(), resolve(settings, None, "format")
     if fmt not in FORMATS:  # auto: known with a context
         return None
     if not quantities:
@@ -250,7 +268,7 @@ def _inert_state_setting(scene, settings, quantities):
 def frames_independent(scene, settings):
     """Whether a frame of ``scene`` needs nothing drawn before it: a stateless (reseeded) scene
     without trails (a trail is the frames before)."""
-    return bool(scene.stateless) and settings.get("trails", "off") == "off"
+    return bool(scene.stateless) and resolve(settings, None, "trails") == "off"
 
 
 def particles_setting(scene):
@@ -337,3 +355,18 @@ def check_settings(settings, scene, rendering=None):
 def setting(name, value):
     """``value`` of setting ``name`` checked against its declaration (kind and range)."""
     return SETTINGS[name].convert(value, name)
+
+
+def resolve(settings, defaults, name):
+    """Frame setting ``name`` as a run takes it, resolved in one place: given in ``settings``
+    (a :class:`FrameSettings`, or None), else the scene's own default (its ``defaults``, a
+    :class:`Defaults`, where it has that field), else the framework's declaration's
+    (:data:`SETTINGS`; bloom: a default :class:`Bloom`)."""
+    value = DEFAULT if settings is None else getattr(settings, name)
+    if value is not DEFAULT:
+        return value
+    if defaults is not None and name in {f.name for f in fields(defaults)}:
+        return getattr(defaults, name)
+    if name == "bloom":
+        return Bloom()
+    return SETTINGS[name].default

@@ -53,7 +53,7 @@ class Field(Rendering):
                                  f"{'the particles' if q.domain is None else 'a 3D grid'}")
         own = {"u_view": tuple(map(float, self.view)), "u_top": float(self.top)}
         interface = stage_interface((self.quantity,), {self.quantity: q}, b.format, own)
-        defines, inputs = colouring(b, b.setting("gradient", defaults.gradient), self.background,
+        defines, inputs = colouring(b, b.setting("gradient"), self.background,
                                     "the scene's objects, over the field")
         defines["read_field_sample"] = f"sample_{self.quantity}"
         b.resource(Resource("field", "target", b.size, "rgba8", linear=True,

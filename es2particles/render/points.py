@@ -104,7 +104,7 @@ class Density(Rendering):
     def check_settings(self, given):
         """The density's and the post chain's settings, each of its kind and in its range (the
         point size against the context's range comes when the frame is planned)."""
-        from .post import Bloom
+        from ..frame.settings import Bloom
         from .ramps import load_ramp
 
         for name, value in given.items():
@@ -117,10 +117,10 @@ class Density(Rendering):
     def plan(self, b, defaults):
         """Add the points stage (accumulated over the run's samples) and the post chain to plan
         builder ``b``; the last post stage's picture is what the frame presents."""
-        from .post import Bloom, plan_post
+        from .post import plan_post
 
         caps, layout, size = b.caps, b.layout, b.size
-        fetch = setting("vertex_fetch", b.setting("vertex_fetch", "auto"))
+        fetch = setting("vertex_fetch", b.setting("vertex_fetch"))
         units = caps.max_vertex_texture_units
         if fetch == "on" and units < 1:
             raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
@@ -128,9 +128,9 @@ class Density(Rendering):
         fetch = fetch == "on" or (fetch == "auto" and units >= 1)
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", setting(
-            "point_size", b.setting("point_size", defaults.point_size)), lo, hi)
-        intensity = setting("intensity", b.setting("intensity", 1.0))
-        b.accumulate = setting("accumulate", b.setting("accumulate", 1))
+            "point_size", b.setting("point_size")), lo, hi)
+        intensity = setting("intensity", b.setting("intensity"))
+        b.accumulate = setting("accumulate", b.setting("accumulate"))
         fmt, note = choose_accumulation(caps, 2 if self.hue else 1)
         # An 8-bit target saturates at 1: count in steps of 1/255 there.
         scale = 1.0 if fmt != "rgba8" else 1.0 / 255.0
@@ -172,6 +172,6 @@ class Density(Rendering):
         # The tone map's reference: the density of an even spread at unit intensity, so that
         # --intensity brightens (relative to the density's own mean it cancelled out).
         mean = layout.count * scale / (w * h) * b.accumulate
-        return plan_post(b, "density", mean, b.setting("exposure", 4.0),
-                         b.setting("gradient", defaults.gradient), b.setting("bloom", Bloom()),
+        return plan_post(b, "density", mean, b.setting("exposure"),
+                         b.setting("gradient"), b.setting("bloom"),
                          self.background, hue=self.hue[0] if self.hue else None)

@@ -7,30 +7,11 @@ and never runs, and the plan says it was left out.
   composite onto the image.
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..frame.plan import Ref, Resource, Stage
-from ..frame.settings import SETTINGS, setting
+from ..frame.settings import Bloom, setting  # noqa: F401 - Bloom: a frame setting's value
 from .ramps import load_ramp
-
-
-@dataclass(frozen=True)
-class Bloom:
-    """Bloom settings: luminance threshold in [0, 1], blur radius (sigma in [0.5, 4] texels of the
-    half-resolution level; the quarter level doubles it), and how much glow is added."""
-
-    # 0.2: the article's glow shows (21% of the de Jong still's pixels change, 0.6% saturate);
-    # at 0.6, above 99.9% of the pixels, bloom changed 0.04% and the glow was invisible.
-    threshold: float = 0.2
-    radius: float = 3.0
-    intensity: float = 0.8
-
-    def __post_init__(self):  # radius at most 4: the 12 taps of blur.frag cover 3 sigma
-        for part in ("threshold", "radius", "intensity"):
-            object.__setattr__(self, part, SETTINGS[f"bloom_{part}"].convert(
-                getattr(self, part), f"bloom {part}"))
 
 
 def blur_taps(sigma, taps=12):

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..fields.field2d import CollisionField
 from ..frame.pipeline import Pipeline
-from ..render.post import Bloom
+from ..frame.settings import Bloom
 from ..scenes.collision import RECT, Collision, CollisionParams
 from ..scenes.dejong import ARTICLE_COEFFICIENTS, DeJong, dejong_map
 from ..frame.simulation import Simulation

@@ -178,6 +178,34 @@ def test_the_dam_break_front_runs_below_ritter_s_bound(gl, tmp_path):
     assert np.abs(density[inside] / RHO0 - 1).max() < 0.05
 
 
+@pytest.mark.slow
+def test_the_mechanical_energy_falls_but_for_the_starting_compression(gl):
+    """E = sum m (|v|^2 / 2 + g y), in float64 from the state every 100 steps of the 2D dam
+    break (800 particles). The starting lattice sums to about 1% over rho0, and that
+    compression's stored work, sum m int_rho0^rho p / rho^2 (the Tait equation's, closed form
+    B ((rho^6 - rho0^6) / (6 rho0^7) + 1 / rho - 1 / rho0)), is all E may gain: it never rises
+    above E0 plus that work (measured +0.86% at 100 steps, the work 0.91%), and by 1000 steps
+    (0.37 s) viscosity and the walls have taken more than 3% (measured 5.6%)."""
+    scene = Sph(spacing=0.05)
+    p = scene.params
+    totals = []
+    with Simulation(gl, scene.graph(gl.caps), p.count, fmt="rgba32f") as sim:
+        scene.initialise(sim, np.random.default_rng(1))
+        x0 = sim.download("position").astype(np.float64)
+        for _ in range(11):
+            x, v = sim.download("position"), sim.download("velocity")
+            totals.append(p.mass * (0.5 * (v * v).sum() + G * x[:, 1].sum()))
+            sim.run(100)
+    r = np.linalg.norm(x0[:, None] - x0[None], axis=2)
+    rho = np.maximum((p.mass * wendland(r, p.h)).sum(axis=1), RHO0)  # no tension: p = 0 below
+    b = RHO0 * p.sound ** 2 / 7
+    stored = p.mass * (b * ((rho ** 6 - RHO0 ** 6) / (6 * RHO0 ** 7) + 1 / rho - 1 / RHO0)).sum()
+    gained = np.array(totals) - totals[0]
+    print(f"stored {stored / totals[0]:.4f} of E0; E / E0 {np.round(1 + gained / totals[0], 4)}")
+    assert 0.005 < stored / totals[0] < 0.02
+    assert gained.max() <= stored and gained[-1] < -0.03 * totals[0]
+
+
 def test_a_saved_state_s_density_is_every_pair_s():
     for scene in (Sph(spacing=0.05), Sph(dimensions=3, spacing=0.1)):
         p = scene.params

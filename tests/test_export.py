@@ -626,6 +626,29 @@ def test_3d_page_draws_and_steps_as_egl_does(gl, browser, tmp_path, scene):
         page.close()
 
 
+def test_a_sprite_page_without_vertex_fetch_draws_egl_s_picture(gl, browser, tmp_path):
+    """--vertex-fetch off on a 3D page: the fountain's sprites read their state back into
+    vertex buffers each frame, and the picture of EGL's state is EGL's (drawn by fetch)."""
+    scene = Fountain()
+    steps = scene.defaults.steps
+    state, image, _ = egl_state(gl, scene, steps)
+    path = tmp_path / "fountain.html"
+    write_page(page_plan(scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0,
+                         vertex_fetch="off"), path)
+    page = Page(browser, path)
+    try:
+        assert not page.errors and not page.call("error"), (page.errors, page.call("error"))
+        for name, parts in state.items():
+            for part, data in enumerate(parts):
+                page.call(f"load('{name}', {part}, '{base64.b64encode(data).decode()}')")
+        page.call(f"frame({steps})")
+        web = page.image(SIZE_3D)
+        assert web.std() > 10, "the page drew a flat picture"
+        compare_images(image, web, "fountain, read back on the page", folder=tmp_path)
+    finally:
+        page.close()
+
+
 def drag(page, dx, dy):
     """Drag the mouse across the page's canvas by (dx, dy) pixels from a point inside it, then
     draw a frame; returns where the drag started."""

@@ -44,7 +44,8 @@ VALUES = {
 # Options whose contract is the same picture and state by another path (their own tests
 # compare the paths), or that a still of this size cannot show, each with why.
 SAME_BY_DESIGN = {
-    "--vertex-fetch": "the points drawn by another path, pixel for pixel (test_render.py)",
+    "--vertex-fetch": "the points and sprites drawn by another path, pixel for pixel "
+                      "(test_render.py, test_vertex_fetch.py)",
 }
 SMALL = ["--size", "32x32", "--particles", "256"]
 BASE = {"wind": ["--grid", "32x32"], "boids": ["--steps", "20"],

@@ -1,6 +1,8 @@
-"""Points without vertex texture fetch (the article's Tegra row): the state read back into vertex
-buffers each frame and decoded by the same read_q() from attributes. The density is the fetch
-path's, count for count; a context with no vertex texture units takes this path by itself."""
+"""Points and sprites without vertex texture fetch (the article's Tegra row): the state read back
+into vertex buffers each frame and decoded by the same read_q() from attributes. The density is
+the fetch path's, count for count, and the sprites' picture byte for byte; a context with no
+vertex texture units takes this path by itself, and what needs textures in the sprites' vertex
+shader (the depth sort, the shadow map) is refused without it in one line."""
 
 import numpy as np
 import pytest
@@ -10,7 +12,7 @@ from es2particles.frame.pipeline import Pipeline
 from es2particles.frame.plan import plan_frame
 from es2particles.frame.settings import FrameSettings
 from es2particles.gl.context import Capabilities
-from es2particles.scenes import Clifford, Collision, DeJong
+from es2particles.scenes import Clifford, Collision, Collision3D, DeJong, Fountain, Smoke
 
 
 @pytest.mark.gl
@@ -43,3 +45,31 @@ def test_a_context_without_vertex_texture_units_reads_the_state_back():
     with pytest.raises(CapabilityError, match="--vertex-fetch on: this context has no vertex "
                                               "texture units"):
         plan_frame(DeJong(), FrameSettings(particles=4096, vertex_fetch="on"), caps)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("scene, settings", [
+    (Fountain(), {}), (Fountain(), {"fmt": "rgba32f"}), (Fountain(buffer_scale=0.5), {}),
+    (Collision3D(), {"steps": 30})], ids=lambda v: str(v)[:40])
+def test_sprites_read_back_draw_the_fetched_picture(gl, scene, settings):
+    images = []
+    for fetch in ("on", "off"):
+        with Pipeline(gl, scene, particles=4096, size=(128, 128), vertex_fetch=fetch,
+                      **settings) as pipeline:
+            sprites = pipeline.plan.stage("sprites")
+            assert bool(sprites.attributes) == (fetch == "off")
+            next(pipeline.frames())
+            images.append(pipeline.image())
+    assert images[0].max() > 0 and np.array_equal(*images)
+
+
+def test_sprites_without_vertex_units_read_back_and_sorting_is_refused():
+    caps = Capabilities.assumed(max_vertex_texture_units=0)
+    plan = plan_frame(Fountain(), FrameSettings(particles=4096), caps)
+    assert set(plan.stage("sprites").attributes) == {"a_position", "a_position_1", "a_life"}
+    line = next(line for line in plan.describe() if "sprites:" in line)
+    assert "no vertex texture fetch: position, life read back each frame" in line
+    with pytest.raises(CapabilityError, match=r"--vertex-fetch off: the depth sort and the "
+                                              r"shadow map read textures in the sprites' vertex "
+                                              r"shader"):
+        plan_frame(Smoke(), FrameSettings(particles=4096, vertex_fetch="off"))

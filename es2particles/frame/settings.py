@@ -175,9 +175,10 @@ SETTINGS = {d.name: d for d in (
              help="samples summed into each image: this step's density and the next K-1 "
                   "steps' (reseeded attractors shift their grid for each); 1/sqrt(K) the noise"),
     _setting("vertex_fetch", "auto", choices=("auto", "on", "off"),
-             help="how the points read the state: on, vertex texture fetch (the article's "
-                  "way); off, the state read back into a vertex buffer each frame (for devices "
-                  "without it); auto, on where the context has vertex texture units"),
+             help="how the points and sprites read the state: on, vertex texture fetch (the "
+                  "article's way); off, the state read back into a vertex buffer each frame (for "
+                  "devices without it; sprites then take no depth sort, shadow map, lamp or "
+                  "shafts); auto, on where the context has vertex texture units"),
     _setting("trails", "off", text=True, metavar="off|fade:OPACITY|ribbons:K",
              help="trails over an animation's frames: fade:OPACITY keeps the brighter of the new "
                   "picture and the last frame's times OPACITY (0 to 1), less 0.6 of a code, so a "

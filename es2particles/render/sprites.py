@@ -217,7 +217,7 @@ class Sprites(Rendering):
     scene_depth: str = "auto"
     shafts: object = None
 
-    settings = ("point_size",)
+    settings = ("point_size", "vertex_fetch")
     has_camera = True
     kind = "it draws 3D sprites: no tone map, gradient map, bloom or accumulation"
 
@@ -304,6 +304,12 @@ class Sprites(Rendering):
         return {sampler: Ref(player[q], part) for sampler, (_, q, part, _) in
                 interface.samplers.items()}
 
+    def role_attributes(self, interface):
+        """The :class:`Ref` of each attribute of an interface written for
+        :meth:`role_quantities` that reads the state back: the scene's quantity behind it."""
+        player = {ROLES[role][0]: quantity for role, quantity in self.roles.items()}
+        return {name: Ref(player[q], part) for name, (q, part) in interface.attributes.items()}
+
     def unlit_message(self, point_size, size, camera):
         """Why a picture of these sprites may have no lit pixel: their diameter at the camera's
         distance from its target, from ``point_size`` (pixels of an image 1024 high), the image
@@ -328,10 +334,28 @@ class Sprites(Rendering):
         point_size = setting("point_size", b.setting("point_size"))
         fade = check_range("fade", self.fade, 0.0, hi)
         # ES 2.0 promises no vertex texture units at all; each part of a read quantity, the
-        # order, and the shadow map with the sprite (its footprint there) take one.
+        # order, and the shadow map with the sprite (its footprint there) take one. Without
+        # them (--vertex-fetch off, or auto on a context with none) the state is read back into
+        # vertex attributes each frame, as the points do; the features that read textures in
+        # the sprites' vertex shader (or draw the sprites again) need the fetch.
+        fetch = setting("vertex_fetch", b.setting("vertex_fetch"))
+        units = caps.max_vertex_texture_units
+        if fetch == "on" and units < 1:
+            raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
+                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
+        fetch = fetch == "on" or (fetch == "auto" and units >= 1)
+        if not fetch:
+            needs = [name for name, on in (("the depth sort", self.sort is not None),
+                                           ("the shadow map", self.shadow is not None),
+                                           ("the lamp", self.lamp is not None),
+                                           ("light shafts", self.shafts is not None)) if on]
+            if needs:
+                raise CapabilityError(f"--vertex-fetch off: {' and '.join(needs)} read textures in "
+                                      "the sprites' vertex shader: switch them off, or draw by "
+                                      "vertex texture fetch")
         needed = (sum(q.parts(fmt) for q in quantities.values()) + (self.sort is not None)
                   + 2 * (self.shadow is not None))
-        if needed > caps.max_vertex_texture_units:
+        if fetch and needed > caps.max_vertex_texture_units:
             raise CapabilityError(f"the sprites' vertex shader samples {needed} textures; this "
                                   f"context allows {caps.max_vertex_texture_units} "
                                   "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS): leave out sorting or "
@@ -379,7 +403,7 @@ class Sprites(Rendering):
                                               network.height)).name
             order = "back to front"
         else:
-            vertices = b.particle_texels()
+            vertices = b.particle_texels()  # each sprite's texel: its hashed size, its state
             b.left_out.append("depth sort (switched off: texel order)")
         if self.shadow is not None:
             per_focal = pixel_size / np.sqrt(c)
@@ -393,7 +417,8 @@ class Sprites(Rendering):
             b.left_out.append("shadow map (switched off)")
         own = {"u_eye": (0.0, 0.0, 1.0), "u_size": (pixel_size, self.size_spread, lo, hi),
                "u_attenuation": (a, b_, c), "u_fade": float(fade)}
-        interface = stage_interface(tuple(quantities), quantities, fmt, own)
+        interface = stage_interface(tuple(quantities), quantities, fmt, own,
+                                    attributes=not fetch)
         background = tuple(float(v) for v in self.background)
         depth_texture = False
         if buffered:
@@ -415,8 +440,13 @@ class Sprites(Rendering):
                                 size[1]))
         else:
             plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
-        what = (f"{layout.count} point sprites in {order}, vertex texture fetch of "
-                f"{', '.join(self.reads)}")
+        if fetch:
+            how = f"vertex texture fetch of {', '.join(self.reads)}"
+        else:
+            texels = sum(q.parts(fmt) for q in quantities.values())
+            how = (f"no vertex texture fetch: {', '.join(self.reads)} read back each frame and "
+                   f"uploaded as vertex attributes ({texels} texture read{'s' * (texels > 1)})")
+        what = f"{layout.count} point sprites in {order}, {how}"
         if buffered:
             picture = self._plan_buffered(b, defines, interface,
                                           {**self.role_inputs(interface), **inputs},
@@ -455,6 +485,7 @@ class Sprites(Rendering):
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
             vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},
+            attributes=self.role_attributes(interface),
             target=Ref("image"), vertices=vertices, primitive="points", count=layout.count,
             state=DrawState(blend=self.blend, depth_test=True, depth_write=False,
                             point_size=True, sprites=True),
@@ -491,7 +522,7 @@ class Sprites(Rendering):
         b.stage(Stage(
             "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert",
             {**defines, **({"SOFT": None} if self.meshes else {}), **scene},
-            vertex_interface=interface,
+            vertex_interface=interface, attributes=self.role_attributes(interface),
             inputs={**inputs, **depth_input}, target=Ref("sprite buffer"), vertices=vertices,
             primitive="points", count=layout.count,
             state=DrawState(blend=self.blend, point_size=True, sprites=True),

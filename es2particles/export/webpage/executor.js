@@ -306,7 +306,9 @@
       gl.bufferData(gl.ARRAY_BUFFER, texels, gl.STREAM_DRAW);
       list.push({ buffer: readBackBuffers[key], name: attribute });
     }
-    return { readBack: list, count: stage.count };
+    // the stage's own vertex data too, where it has some (the sprites' texels: their hashes)
+    const own = stage.vertices === null ? null : vertexData[stage.vertices];
+    return { readBack: list, count: stage.count, own };
   }
 
   let enabled = [];
@@ -322,8 +324,13 @@
         gl.vertexAttribPointer(location, 4, gl.UNSIGNED_BYTE, true, 0, 0);
         enabled.push(location);
       }
+      if (vertices.own) floats(p, vertices.own);
       return;
     }
+    floats(p, vertices);
+  }
+
+  function floats(p, vertices) {  // interleaved float attributes of vertex data
     gl.bindBuffer(gl.ARRAY_BUFFER, vertices.buffer);
     const stride = 4 * vertices.attributes.reduce((sum, [, n]) => sum + n, 0);
     let offset = 0;

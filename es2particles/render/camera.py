@@ -114,6 +114,15 @@ class Camera:
         return pixels, distance, visible
 
 
+def looking_at(target, direction, distance, fov=45.0):
+    """A camera ``distance`` from ``target`` along ``direction`` (any length), looking at it;
+    its near and far planes from the distance (a hundredth, four times)."""
+    direction = np.asarray(direction, float) / np.linalg.norm(direction)
+    eye = np.asarray(target, float) + distance * direction
+    return Camera(eye=tuple(map(float, eye)), target=tuple(map(float, target)), fov=fov,
+                  near=0.01 * distance, far=4.0 * distance)
+
+
 def orbit(frame, frames, radius=6.0, height=2.5, target=(0.0, 1.0, 0.0), fov=45.0, turns=1.0,
           phase=0.0):
     """The camera of frame ``frame`` of ``frames`` on a circle of ``radius`` around ``target``

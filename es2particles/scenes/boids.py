@@ -20,7 +20,7 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
-from ..render.camera import Camera
+from ..render.camera import looking_at
 from ..render.sprites import Sprites
 from .base import Scene
 
@@ -138,12 +138,7 @@ class Boids(Scene):
 
     def camera_at(self, frame, frames):
         """3D: the box's centre seen from in front, a little above and to the right."""
-        box = np.array(self.params.extent)
-        centre = box / 2
-        direction = np.array([0.35, 0.3, 1.0]) / np.linalg.norm([0.35, 0.3, 1.0])
-        eye = centre + self._distance * direction
-        return Camera(eye=tuple(map(float, eye)), target=tuple(map(float, centre)), fov=45.0,
-                      near=0.01 * self._distance, far=4.0 * self._distance)
+        return looking_at(np.array(self.params.extent) / 2, (0.35, 0.3, 1.0), self._distance)
 
     def after_run(self, sim):
         return super().after_run(sim) + [f"order parameter |mean unit velocity|: {order_parameter(sim.download('velocity')):.3f} "

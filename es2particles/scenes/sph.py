@@ -26,7 +26,7 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
-from ..render.camera import Camera
+from ..render.camera import looking_at
 from ..render.sprites import Sprites
 from .base import Scene
 
@@ -195,12 +195,8 @@ class Sph(Scene):
 
     def camera_at(self, frame, frames):
         """3D: the tank from in front, above and to the right of its middle."""
-        box = np.array(self.params.tank)
-        centre = box * [0.5, 0.3, 0.5]
-        direction = np.array([0.3, 0.45, 1.0]) / np.linalg.norm([0.3, 0.45, 1.0])
-        eye = centre + self._distance * direction
-        return Camera(eye=tuple(map(float, eye)), target=tuple(map(float, centre)), fov=50.0,
-                      near=0.01 * self._distance, far=4.0 * self._distance)
+        return looking_at(np.array(self.params.tank) * [0.5, 0.3, 0.5], (0.3, 0.45, 1.0),
+                          self._distance, fov=50.0)
 
     def time_step(self, count):
         return self.params.step

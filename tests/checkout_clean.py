@@ -19,6 +19,25 @@ HOME = tempfile.mkdtemp(prefix="es2particles-tests-")
 atexit.register(shutil.rmtree, HOME, True)
 
 
+def _forget_own_bytecode():
+    """pytest compiled this plugin into tests/__pycache__ before its first line ran (a ``-p``
+    plugin's asserts are rewritten, and the prefix below was not set yet): remove that file,
+    and the folder where nothing else is in it."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    folder = os.path.join(here, "__pycache__")
+    name = os.path.splitext(os.path.basename(__file__))[0]
+    try:
+        for entry in os.listdir(folder):
+            if entry.startswith(name + "."):
+                os.remove(os.path.join(folder, entry))
+        os.rmdir(folder)
+    except OSError:  # not there, or not empty: someone else's
+        pass
+
+
+atexit.register(_forget_own_bytecode)
+
+
 def _compiled_folder():
     """$XDG_CACHE_HOME (or ~/.cache)/es2particles-tests/pycache where it can be made, else the
     session's folder."""

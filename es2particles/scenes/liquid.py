@@ -21,7 +21,7 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
-from .base import Push, Scene
+from .base import Control, Push, Scene
 
 SHADER = "liquid/liquid.frag"
 # The share of the pairs' summed displacements a particle takes in the gather form. The paper's
@@ -31,6 +31,7 @@ SHADER = "liquid/liquid.frag"
 # 0.36 box/s, surface spread 0.25 box). At 0.7 they settle (0.03 box/s, spread 0.02).
 GATHER_SHARE = 0.7
 AUTHOR_COUNT = 900  # the author's largest scene: h = 2 sqrt(area / 900), dt = 1/60 s
+GRAVITY_TILT = 8.0  # box/s^2: the gravity sliders and keys reach this each way (4 x the default)
 
 
 @dataclass(frozen=True)
@@ -172,6 +173,12 @@ class Liquid(Scene):
         p = self.params
         x0, y0, x1, y1 = np.asarray(p.fill) * np.tile(p.box, 2)
         return {"position": np.stack([rng.uniform(x0, x1, count), rng.uniform(y0, y1, count)], 1)}
+
+    def controls(self):
+        """Gravity's two components as sliders of the page and keys of a live view (tab picks
+        one, +/- tilt it), as the author's wallpaper tilts its gravity with the phone."""
+        return super().controls() + [Control(f"gravity {axis}", "u_gravity", k, -GRAVITY_TILT,
+                                             GRAVITY_TILT) for k, axis in enumerate("xy")]
 
     def describe(self):
         p = self.params

@@ -453,8 +453,7 @@ def boids_section(ctx, sizes, repeats, emit, dimensions=2):
     growth = []
     for log2n in sizes:
         count = 2 ** log2n
-        side = (4.0 if dimensions == 2 else 1.0) * (count / 2 ** 14) ** (1 / dimensions)
-        scene = Boids(dimensions=dimensions, box=(side,) * dimensions)
+        scene = Boids.at_density(count, dimensions)
         with Simulation(ctx, scene.graph(ctx.caps), count) as sim:
             scene.initialise(sim, np.random.default_rng(1))
             sim.run(20)
@@ -536,12 +535,12 @@ def liquid_section(ctx, sizes, repeats, emit):
 
 
 def sph_numpy_step(x, v, p):
-    """The SPH step in numpy (float64), its pairs from a numpy cell list: the same equations as
-    sph.frag (density, Tait pressure without tension, Monaghan viscosity, walls)."""
+    """The 2D SPH step in numpy (float64), its pairs from a numpy cell list: the same equations
+    as sph.frag (density, Tait pressure without tension, Monaghan viscosity, walls)."""
     from es2particles.scenes.sph import G, RHO0, wendland
     from es2particles.twins.neighbours import pairs_within
 
-    h, m, c0, dt, n = p.h, RHO0 * p.spacing ** 2, p.sound, p.step, len(x)
+    h, m, c0, dt, n = p.h, p.mass, p.sound, p.step, len(x)
     i, j, r = pairs_within(x, 2 * h)
     w = m * wendland(r, h)
     rho = np.bincount(i, w, n) + np.bincount(j, w, n) + m * wendland(np.zeros(1), h)[0]
@@ -559,7 +558,7 @@ def sph_numpy_step(x, v, p):
     push = (m * term * slope / r)[:, None] * d
     a = np.array([0.0, -G]) - np.stack([np.bincount(i, push[:, k], n) for k in range(2)], 1)
     v = v + dt * a
-    box = np.asarray(p.box, float)
+    box = np.asarray(p.tank, float)
     v = np.where(((x <= 0) & (v < 0)) | ((x >= box) & (v > 0)), -p.restitution * v, v)
     return np.clip(x + dt * v, 0, box), v
 

@@ -44,8 +44,7 @@ def sph_rows(ctx, steps, every, spacing):
 
 
 def boids_rows(ctx, steps, every, dimensions, count):
-    side = (4.0 if dimensions == 2 else 1.0) * (count / 2 ** 14) ** (1 / dimensions)
-    scene = Boids(dimensions=dimensions, box=(side,) * dimensions)
+    scene = Boids.at_density(count, dimensions)
     with Simulation(ctx, scene.graph(ctx.caps), count) as sim:
         scene.initialise(sim, np.random.default_rng(1))
         rows = []

@@ -72,7 +72,7 @@ def test_without_fragment_highp_packed_state_is_refused_in_one_line():
     assert not caps.fragment_highp
     with pytest.raises(CapabilityError, match=r"format 'rgba8' packs each value in 16 bits, "
                        r"which fragment shaders without highp float cannot unpack \(this "
-                       r"context's best is mediump, 10 bits\): use --format rgba16f"):
+                       r"context's best is mediump, 10 bits\): use --format auto"):
         resolve_format(caps, "rgba8")
     assert resolve_format(caps, "rgba16f")[0] == "rgba16f"
     float_less = Capabilities.assumed(probe_precision=lambda: tegra,
@@ -83,6 +83,15 @@ def test_without_fragment_highp_packed_state_is_refused_in_one_line():
                                               "format it can unpack"):
         resolve_format(float_less, "auto")
     assert resolve_format(Capabilities.assumed(), "rgba8")[0] == "rgba8"
+    # a quantity declared 32-bit is kept packed even in a float run: refused there too
+    from es2particles.frame.graph import PassGraph
+    from es2particles.frame.plan import plan_graph
+
+    g = PassGraph()
+    g.quantity("t", 0.0, 1.0, components=1, bits=32)
+    g.add("keep", "x.frag", writes="t", reads=["t"])
+    with pytest.raises(CapabilityError, match=r"quantity 't' is kept packed in rgba8_32"):
+        plan_graph(g, 64, fmt="rgba16f", caps=caps)
 
 
 @pytest.mark.gl

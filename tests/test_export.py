@@ -972,3 +972,16 @@ def test_a_neighbour_grid_page_steps_as_egl_does(gl, browser, tmp_path, name):
     same = np.all(web["texels"][:n] == texels, axis=1)
     print(f"{name}: {same.mean():.2%} of {n} texels identical after {steps} steps")
     assert same.all(), f"{np.count_nonzero(~same)} of {n} texels differ"
+
+
+def test_a_grip_without_a_motion_is_refused_by_the_page():
+    """The page moves a grip's sphere by the motion's rest offset, a step of its dt: a scene
+    that declares a grip and no motion is refused, naming both (no NaN drift on the page)."""
+    from es2particles.errors import GraphError
+
+    class Stuck(Smoke):
+        def motion(self):
+            return None
+
+    with pytest.raises(GraphError, match="declares a grip but no motion"):
+        page_plan(Stuck(), particles=256, size=(32, 32), steps=0)

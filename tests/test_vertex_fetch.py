@@ -70,6 +70,9 @@ def test_sprites_without_vertex_units_read_back_and_sorting_is_refused():
     line = next(line for line in plan.describe() if "sprites:" in line)
     assert "no vertex texture fetch: position, life read back each frame" in line
     with pytest.raises(CapabilityError, match=r"--vertex-fetch off: the depth sort and the "
-                                              r"shadow map read textures in the sprites' vertex "
-                                              r"shader"):
+                                              r"shadow map of this scene's sprites read textures "
+                                              r"in their vertex shader"):
         plan_frame(Smoke(), FrameSettings(particles=4096, vertex_fetch="off"))
+    with pytest.raises(CapabilityError, match=r"^this context has no vertex texture units: the "
+                                              r"depth sort and the shadow map"):
+        plan_frame(Smoke(), FrameSettings(particles=4096), caps)

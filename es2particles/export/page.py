@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import CapabilityError, ParameterError
+from ..errors import CapabilityError, GraphError, ParameterError
 from ..frame.plan import frame_value, motion_values, plan_frame
 from ..frame.settings import DEFAULT
 from ..frame.state import as_rows, encode_values, fill_texels, part_textures, zero_texels
@@ -233,7 +233,7 @@ def page_plan(scene, settings=None, frames=1, steps_per_frame=1, **given):
             "programs": programs.sources, "density": density,
             "camera": _camera(camera), "motion": _motion(plan.motion),
             "controls": [asdict(c) for c in scene.controls()],
-            "grip": _grip(scene.grip()),
+            "grip": _grip(scene.grip(), plan.motion),
             "push": _push(scene, plan),
             # Whether a vertex shader samples a texture (particles by vertex texture fetch):
             # the page needs vertex texture units only then.
@@ -315,10 +315,16 @@ def _camera(camera):
             "distance_limits": list(DISTANCE_LIMITS), "wheel_step": WHEEL_STEP}
 
 
-def _grip(grip):
-    """A scene's grip (what a drag moves over the floor), or None."""
-    return None if grip is None else {k: _json_number(v) if k not in ("uniform", "velocity")
-                                      else v for k, v in asdict(grip).items()}
+def _grip(grip, motion):
+    """A scene's grip (what a drag moves over the floor), or None. Its drag moves the motion's
+    rest offset, at the motion's step: a grip without a motion is refused."""
+    if grip is None:
+        return None
+    if motion is None:
+        raise GraphError("the scene declares a grip but no motion: the page moves a grip's "
+                         "sphere by the motion's offset, a step of its dt (Scene.motion)")
+    return {k: _json_number(v) if k not in ("uniform", "velocity") else v
+            for k, v in asdict(grip).items()}
 
 
 def _push(scene, plan):

@@ -409,6 +409,10 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
         if q.storage and not caps.renderable.get(texture_format(q.storage)):
             raise CapabilityError(f"quantity {name!r} is pinned to {q.storage}, which cannot be "
                                   f"rendered to on {caps.renderer}")
+        if q.format_in(fmt).startswith("rgba8") and not caps.fragment_highp:
+            raise CapabilityError(f"quantity {name!r} is kept packed in {q.format_in(fmt)} "
+                                  "(its declaration asks it), which fragment shaders without "
+                                  "highp float cannot unpack")
         swap = "write" if name in plan.versioned else "step" if n == 2 else None
         where = f", on grid {q.domain.name}" if q.domain is not None else ""
         builder.resource(Resource(name, "state", layout_of(q).size, q.format_in(fmt),

@@ -120,7 +120,7 @@ def resolve_format(caps, fmt):
         bits = caps.precision["fragment"]["medium float"][2]
         raise CapabilityError(f"format 'rgba8' packs each value in 16 bits, which fragment "
                               f"shaders without highp float cannot unpack (this context's best "
-                              f"is mediump, {bits} bits): use --format rgba16f")
+                              f"is mediump, {bits} bits): use --format auto")
     return fmt, fmt
 
 

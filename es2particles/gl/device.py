@@ -110,6 +110,9 @@ class GLDevice:
                 span, bits = (ctypes.c_int * 2)(), ctypes.c_int()
                 call(shader_enum, 0x8DF0 + i, span, ctypes.byref(bits))
                 table[shader][name] = (span[0], span[1], bits.value)
+        # A context that errs on the call, or answers nothing at all (a stub), does not say.
+        if self.error() != "GL_NO_ERROR" or not any(any(v) for v in table["fragment"].values()):
+            return None
         return table
 
     def make_current(self):

@@ -343,6 +343,8 @@ class Sprites(Rendering):
         if fetch == "on" and units < 1:
             raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
                                   "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
+        why = ("--vertex-fetch off" if fetch == "off"
+               else "this context has no vertex texture units")
         fetch = fetch == "on" or (fetch == "auto" and units >= 1)
         if not fetch:
             needs = [name for name, on in (("the depth sort", self.sort is not None),
@@ -350,9 +352,10 @@ class Sprites(Rendering):
                                            ("the lamp", self.lamp is not None),
                                            ("light shafts", self.shafts is not None)) if on]
             if needs:
-                raise CapabilityError(f"--vertex-fetch off: {' and '.join(needs)} read textures in "
-                                      "the sprites' vertex shader: switch them off, or draw by "
-                                      "vertex texture fetch")
+                raise CapabilityError(f"{why}: {' and '.join(needs)} of this scene's sprites read "
+                                      "textures in their vertex shader, which needs vertex "
+                                      "texture fetch (switch them off where the scene offers "
+                                      "it: --sort off, --shadows off, --shafts off)")
         needed = (sum(q.parts(fmt) for q in quantities.values()) + (self.sort is not None)
                   + 2 * (self.shadow is not None))
         if fetch and needed > caps.max_vertex_texture_units:

@@ -12,7 +12,7 @@ cohesion radius turns away from it. The flock's order parameter (the norm of the
 velocity: 0 for random headings, 1 for one heading) is said at the end of a run.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -85,13 +85,21 @@ class Boids(Scene):
         box = self.params.extent
         self.view = (0.0, 0.0, box[0], box[1])
         if self.params.dimensions == 3:
-            self.defaults = Defaults(self.defaults.particles, POINT_SIZE_3D, self.defaults.steps)
+            self.defaults = replace(self.defaults, point_size=POINT_SIZE_3D)
 
     @classmethod
     def default_text(cls, setting):
         if setting == "point_size":
             return f"{cls.defaults.point_size:g} (3D: {POINT_SIZE_3D:g})"
         return super().default_text(setting)
+
+    @classmethod
+    def at_density(cls, count, dimensions=2):
+        """The flock of ``count`` boids at the defaults' density (16,384 in 4 x 4, or in the unit
+        cube): the box grown or shrunk with the count."""
+        side = (4.0 if dimensions == 2 else 1.0) * (count / cls.defaults.particles) ** (
+            1 / dimensions)
+        return cls(dimensions=dimensions, box=(side,) * dimensions)
 
     def graph(self, caps=None):
         p = self.params

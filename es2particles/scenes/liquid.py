@@ -177,8 +177,9 @@ class Liquid(Scene):
     def controls(self):
         """Gravity's two components as sliders of the page and keys of a live view (tab picks
         one, +/- tilt it), as the author's wallpaper tilts its gravity with the phone."""
-        return super().controls() + [Control(f"gravity {axis}", "u_gravity", k, -GRAVITY_TILT,
-                                             GRAVITY_TILT) for k, axis in enumerate("xy")]
+        reach = max(GRAVITY_TILT, *map(abs, self.params.gravity))  # a --gravity beyond: its own
+        return super().controls() + [Control(f"gravity {axis}", "u_gravity", k, -reach, reach)
+                                     for k, axis in enumerate("xy")]
 
     def describe(self):
         p = self.params

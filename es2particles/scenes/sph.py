@@ -18,7 +18,7 @@ density recomputed in float64 from the saved positions, the steps and the simula
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -140,8 +140,7 @@ class Sph(Scene):
         self.view = (0.0, 0.0, p.tank[0], p.tank[1])
         # 3D: sprites as wide as the spacing seen from the camera (they touch at the start)
         size = POINT_SIZE_2D if p.dimensions == 2 else SPRITE_PER_METRE * p.dx
-        self.defaults = Defaults(particles=p.count, point_size=size, steps=2000,
-                                 rounding="dither")
+        self.defaults = replace(self.defaults, particles=p.count, point_size=size)
 
     def graph(self, caps=None, count=None):
         p = self.params

@@ -34,7 +34,7 @@ from .graph import scene_graph
 from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import Motion
-from .settings import (COMMON_SETTINGS, MAX_STEPS, FrameSettings, check_rounding,
+from .settings import (COMMON_SETTINGS, MAX_STEPS, Defaults, FrameSettings, check_rounding,
                        check_settings, parse_size, parse_trails, resolve, resolve_format,
                        scene_rendering)
 from .state import Layout
@@ -265,7 +265,8 @@ class PlanBuilder:
 
     def __init__(self, scene_name, settings, caps, uses=(), defaults=None):
         self.scene_name, self.settings, self.caps = scene_name, settings, caps
-        self.defaults = defaults  # the scene's Defaults, where a setting was not given
+        # the scene's Defaults, where a setting was not given (the framework's where none)
+        self.defaults = defaults if defaults is not None else Defaults()
         self.uses = set(COMMON_SETTINGS) | set(uses)
         self.resources, self.vertices, self.stages = {}, {}, []
         self.left_out, self.notes = [], []

@@ -37,6 +37,20 @@ def step_all_pairs(x, v, radii, weights, speed, box, dt):
     return np.clip(x + dt * v, 0.0, box), v
 
 
+def step_against_all_pairs(gl, scene, start):
+    """(x0, v0, x1, v1, want_x, want_v): one GPU step from ``start`` in float state, and the
+    all-pairs float64 step from the same state."""
+    p = scene.params
+    with Simulation(gl, scene.graph(gl.caps), len(start["position"]), fmt="rgba32f") as sim:
+        for name, value in start.items():
+            sim.upload(name, value)
+        x0, v0 = sim.download("position"), sim.download("velocity")
+        sim.run(1)
+        x1, v1 = sim.download("position"), sim.download("velocity")
+    return (x0, v0, x1, v1,
+            *step_all_pairs(x0, v0, p.radii, p.weights, p.speed, p.extent, p.dt))
+
+
 def test_a_step_is_the_three_rules_over_every_pair(gl):
     """2048 boids crowded into a quarter of the box (about 20 within a radius each), one step in
     float state: velocity and position equal the all-pairs float64 step to float32 rounding."""
@@ -45,13 +59,7 @@ def test_a_step_is_the_three_rules_over_every_pair(gl):
     rng = np.random.default_rng(4)
     start = scene.start(2048, rng)
     start["position"] = 0.25 + 0.5 * start["position"] / np.asarray(p.extent)
-    with Simulation(gl, scene.graph(gl.caps), 2048, fmt="rgba32f") as sim:
-        for name, value in start.items():
-            sim.upload(name, value)
-        x0, v0 = sim.download("position"), sim.download("velocity")
-        sim.run(1)
-        x1, v1 = sim.download("position"), sim.download("velocity")
-    want_x, want_v = step_all_pairs(x0, v0, p.radii, p.weights, p.speed, p.extent, p.dt)
+    x0, v0, x1, v1, want_x, want_v = step_against_all_pairs(gl, scene, start)
     d = np.sqrt(((x0[:, None] - x0[None]) ** 2).sum(-1))
     assert (d < p.radii[1]).sum(1).mean() > 10  # they do see each other
     assert np.abs(v1 - want_v).max() < 1e-5 * p.speed[1]
@@ -69,13 +77,7 @@ def test_a_3d_step_is_the_three_rules_over_every_pair(gl):
     start = scene.start(2048, rng)
     assert start["position"].shape == (2048, 3)
     start["position"] = 0.375 + 0.25 * start["position"]
-    with Simulation(gl, scene.graph(gl.caps), 2048, fmt="rgba32f") as sim:
-        for name, value in start.items():
-            sim.upload(name, value)
-        x0, v0 = sim.download("position"), sim.download("velocity")
-        sim.run(1)
-        x1, v1 = sim.download("position"), sim.download("velocity")
-    want_x, want_v = step_all_pairs(x0, v0, p.radii, p.weights, p.speed, p.extent, p.dt)
+    x0, v0, x1, v1, want_x, want_v = step_against_all_pairs(gl, scene, start)
     d = np.sqrt(((x0[:, None] - x0[None]) ** 2).sum(-1))
     assert (d < p.radii[1]).sum(1).mean() > 10
     assert np.abs(v1 - want_v).max() < 1e-5 * p.speed[1]

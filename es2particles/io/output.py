@@ -84,21 +84,16 @@ def check_folder(folder, parameter):
         raise ParameterError(f"{parameter}: {str(existing)!r} is a file, not a folder")
     # Try it: permissions say nothing of a read-only file system, /proc, or root's rights.
     # SIGINT and SIGTERM are held off meanwhile: one landing between the probe's creation and
-    # its removal left it behind (a fresh clone's CI, once each).
-    import signal
-
-    held = hasattr(signal, "pthread_sigmask")
-    before = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM}) \
-        if held else None
+    # its removal left it behind (a fresh clone's CI, once each). Held by Python's handlers, not
+    # by this thread's signal mask: with another thread running (a phase's timer) the kernel
+    # hands the signal to that thread, and Python still raises it here, inside the block.
     try:
-        with tempfile.NamedTemporaryFile(dir=existing, prefix=".es2particles-probe-"):
+        with signals_deferred(), tempfile.NamedTemporaryFile(dir=existing,
+                                                             prefix=".es2particles-probe-"):
             pass
     except OSError as error:
         raise ParameterError(f"{parameter}: cannot write in {str(existing)!r}: "
                              f"{error.strerror or error}") from None
-    finally:
-        if held:
-            signal.pthread_sigmask(signal.SIG_SETMASK, before)
     return folder
 
 

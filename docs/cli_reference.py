@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from es2particles.cli import build_parser, main
-from es2particles.frame.settings import SETTINGS, Defaults, particles_setting
+from es2particles.frame.settings import BLOOM_PARTS, SETTINGS, Defaults, particles_setting
 from es2particles.params import Param
 from es2particles.scenes import BUILT_IN, scene_class
 
@@ -128,13 +128,18 @@ def setting_rows(scene, actions):
     for action in actions:
         if action.help == argparse.SUPPRESS:
             continue
-        if action.dest == "no_bloom":
-            out.append(row(code("--no-bloom"), value_text(None, action), "", "", "bloom on",
+        if action.dest in ("no_bloom", "bloom_on"):
+            out.append(row(code(action.option_strings[0]), value_text(None, action), "", "",
+                           "bloom on" if action.dest == "no_bloom" else "bloom off",
                            cell(action.help)))
             continue
         d = particles_setting(scene) if action.dest == "particles" else SETTINGS[action.dest]
-        default = scene.default_text(action.dest) if action.dest in SCENE_DEFAULTS \
-            else d.describe_value(d.default)
+        if action.dest in SCENE_DEFAULTS:
+            default = scene.default_text(action.dest)
+        elif action.dest in BLOOM_PARTS:  # the parts the scene's rendering blooms with
+            default = d.describe_value(getattr(scene.renders.bloom_parts, action.dest[6:]))
+        else:
+            default = d.describe_value(d.default)
         out.append(row(code(action.option_strings[0]), value_text(d, action), cell(d.unit),
                        cell(range_text(d)), cell(default), help_words(d)))
     return out
@@ -221,7 +226,9 @@ def scene_section(name):
     own, params, settings = groups(parser)
     summary = (scene.__doc__ or name).strip().splitlines()[0].replace("``", "`")
     used = [a for a in settings if a.help != argparse.SUPPRESS]
-    unused = [a.option_strings[0] for a in settings if a.help == argparse.SUPPRESS]
+    # the bloom switch not listed is taken and changes nothing (bloom is already on, or off)
+    unused = [a.option_strings[0] for a in settings if a.help == argparse.SUPPRESS
+              and a.dest not in ("bloom_on", "no_bloom")]
     page = scene_page(name)
     if page:
         summary += f" Its page: [{page}]({page})."

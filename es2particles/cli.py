@@ -420,24 +420,26 @@ def _add_settings(parser, scene):
     used = COMMON_SETTINGS + tuple(scene.renders.settings)
     # The settings it does not use are taken but not shown, so giving one is refused in one line
     # that names it and says why (check_settings), not argparse's "unrecognized arguments".
-    for name in [n for n in (*SETTINGS, "bloom") if n not in used and n not in BLOOM_PARTS]:
-        if name == "bloom":
-            parser.add_argument("--no-bloom", action="store_true", default=None,
-                                help=argparse.SUPPRESS)
-            for part in BLOOM_PARTS:
-                parser.add_argument(SETTINGS[part].flag_name, dest=part, default=None,
-                                    help=argparse.SUPPRESS)
-        else:
-            parser.add_argument(SETTINGS[name].flag_name, dest=name, default=None,
-                                help=argparse.SUPPRESS)
+    for name in [n for n in SETTINGS if n not in used and n not in BLOOM_PARTS]:
+        parser.add_argument(SETTINGS[name].flag_name, dest=name, default=None,
+                            help=argparse.SUPPRESS)
     for name in used:
         if name == "bloom":
+            # Bloom is over every rendering's picture, on by default where the rendering says
+            # (the density's): the switch listed is the one that changes something here, and
+            # the other is taken (a run file's value may be either).
+            on = scene.renders.default_bloom is not None
             parser.add_argument("--no-bloom", action="store_true", default=None,
-                                help="switch bloom off")
+                                help="switch bloom off" if on else argparse.SUPPRESS)
+            parser.add_argument("--bloom", dest="bloom_on", action="store_true", default=None,
+                                help=argparse.SUPPRESS if on else
+                                "switch bloom on over the picture (off by default here; a "
+                                "--bloom-* value switches it on too)")
             for part in BLOOM_PARTS:
                 d = SETTINGS[part]
+                default = d.describe_value(getattr(scene.renders.bloom_parts, part[6:]))
                 parser.add_argument(d.flag_name, dest=part, default=None, metavar="X",
-                                    help=d.help_text())
+                                    help=d.help_text(default_text=default))
             continue
         d = particles_setting(scene) if name == "particles" else SETTINGS[name]
         default = scene.default_text(name) if name in scene_defaults else None
@@ -542,7 +544,6 @@ def run_of(args):
 
     from .errors import ParameterError
     from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
-    from .frame.settings import Bloom
     from .run import Run, read_run
 
     base = Run(args.scene)
@@ -563,13 +564,15 @@ def run_of(args):
         getattr(args, part), SETTINGS[part].flag_name) for part in BLOOM_PARTS}
     if getattr(args, "no_bloom", None):
         given = ["--" + p.replace("_", "-") for p, v in parts.items() if v is not None]
+        given += ["--bloom"] if getattr(args, "bloom_on", None) else []
         if given:
             raise ParameterError(f"--no-bloom switches bloom off: leave out {', '.join(given)}")
         settings["bloom"] = None
-    elif any(value is not None for value in parts.values()):
-        before = base.settings.get("bloom", Bloom()) or Bloom()
-        settings["bloom"] = Bloom(*(getattr(before, p[6:]) if v is None else v
-                                    for p, v in parts.items()))
+    elif getattr(args, "bloom_on", None) or any(value is not None for value in parts.values()):
+        # the run file's bloom, else the parts this scene's rendering blooms with
+        before = base.settings.get("bloom", None) or args.scene_class.renders.bloom_parts
+        settings["bloom"] = replace(before, **{p[6:]: v for p, v in parts.items()
+                                               if v is not None})
     options = {**base.options, **{name: getattr(args, name) for name in args.scene_options
                                   if getattr(args, name) is not None}}
     frames = {}

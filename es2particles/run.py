@@ -134,11 +134,12 @@ def write_run(run, scene, path):
 def resolved_settings(settings, scene):
     """The frame settings ``scene`` uses, each its value in ``settings`` or its default, as a
     run file writes them (the gradient 'none' where it is off, bloom a table or false)."""
-    from .frame.settings import COMMON_SETTINGS, resolve
+    from .frame.settings import COMMON_SETTINGS, resolve, scene_rendering
 
     out = {}
-    for name in COMMON_SETTINGS + tuple(scene.rendering().settings):
-        value = resolve(settings, scene.defaults, name)
+    rendering = scene_rendering(scene, settings.particles)
+    for name in COMMON_SETTINGS + tuple(rendering.settings):
+        value = resolve(settings, scene.defaults, name, rendering)
         if name == "bloom":
             out["bloom"] = False if value is None else {
                 "threshold": value.threshold, "radius": value.radius,
@@ -155,9 +156,13 @@ def resolved_settings(settings, scene):
 def settings_from_mapping(mapping, where, scene=None):
     """The :class:`FrameSettings` of a run file's [settings] table (for ``scene``, a scene
     class: the particle count's range is its own)."""
-    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
-    from .frame.settings import Bloom
+    from dataclasses import replace
 
+    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
+    from .frame.plan import Rendering
+
+    # the parts a table leaves out, and true, are the parts the scene's rendering blooms with
+    parts_of = (scene.renders if scene is not None else Rendering).bloom_parts
     known = [n for n in SETTINGS if n not in BLOOM_PARTS] + ["bloom"]
     given = {}
     for name, value in mapping.items():
@@ -167,17 +172,19 @@ def settings_from_mapping(mapping, where, scene=None):
         if name == "bloom":
             if value is False:
                 given["bloom"] = None
+            elif value is True:
+                given["bloom"] = parts_of
             elif isinstance(value, dict):
                 parts = {f"bloom_{k}": v for k, v in value.items()}
                 bad = [k for k in parts if k not in BLOOM_PARTS]
                 if bad:
                     raise ParameterError(f"{where}: [settings] bloom has no {bad[0][6:]!r} "
                                          "(bloom = {threshold, radius, intensity} or false)")
-                given["bloom"] = Bloom(**{k[6:]: SETTINGS[k].convert(v, f"bloom {k[6:]}")
-                                          for k, v in parts.items()})
+                given["bloom"] = replace(parts_of, **{
+                    k[6:]: SETTINGS[k].convert(v, f"bloom {k[6:]}") for k, v in parts.items()})
             else:
                 raise ParameterError(f"{where}: [settings] bloom must be a table "
-                                     "{threshold, radius, intensity} or false")
+                                     "{threshold, radius, intensity}, true or false")
         elif name == "gradient":
             if not isinstance(value, str):
                 raise ParameterError(f"{where}: [settings] gradient must be text, got {value!r}")

@@ -235,8 +235,7 @@ class Unread(Rendering):
                       target=Ref("scratch"), uniforms={"u_threshold": 0.5}))
         return present
 
-    settings = ("point_size", "intensity", "exposure", "gradient", "bloom",
-                                   "accumulate", "vertex_fetch")
+    settings = ("point_size", "intensity", "exposure", "gradient", "accumulate", "vertex_fetch")
 
 
 class UnreadScene(DeJong):
@@ -250,7 +249,8 @@ def test_culling_walks_back_from_the_picture_and_says_what_it_left_out():
     plan = plan_frame(UnreadScene(), FrameSettings(particles=64, size=(16, 16)))
     assert "scratch" not in [s.name for s in plan.stages]
     assert "post stage scratch (nothing reads scratch)" in plan.left_out
-    assert "left out: post stage scratch (nothing reads scratch)" in str(plan)
+    assert "left out: bloom (switched off), post stage scratch (nothing reads scratch)" \
+        in str(plan)
 
 
 @pytest.mark.parametrize("scene, setting, option", [
@@ -258,7 +258,7 @@ def test_culling_walks_back_from_the_picture_and_says_what_it_left_out():
     (Fountain(), dict(exposure=2.0), "--exposure"),
     (Smoke(), dict(intensity=2.0), "--intensity"),
     (Collision3D(field_resolution=16), dict(accumulate=2), "--accumulate"),
-    (Smoke(), dict(bloom=None), "--no-bloom/--bloom-*"),
+    (Smoke(), dict(exposure=2.0), "--exposure"),
 ])
 def test_a_setting_the_scene_does_not_use_is_refused_naming_it(scene, setting, option):
     with pytest.raises(ParameterError, match=re.escape(f"{option}: scene '{scene.name}' does not "

@@ -16,7 +16,7 @@ from conftest import glslang, missing
 from es2particles.export.page import page_plan, write_page
 from es2particles.frame.pipeline import Pipeline
 from es2particles.render.camera import Camera
-from es2particles.frame.settings import DEFAULT
+from es2particles.frame.settings import DEFAULT, Bloom
 from es2particles.scenes import Collision3D, Confetti, Flame, Fountain, Smoke
 from es2particles.scenes.clifford import Clifford
 from es2particles.scenes.collision import Collision
@@ -539,11 +539,12 @@ def _codes(texels):
     return t[:, 0::2] * 256 + t[:, 1::2]
 
 
-def egl_state(gl, scene, steps, camera=None, drag=None):
+def egl_state(gl, scene, steps, camera=None, drag=None, **settings):
     """EGL after ``steps`` steps: each quantity's part texels, the picture of that state (seen
     from ``camera``, default the scene's; the moving meshes' rest offset moved by ``drag``,
-    default not), and the texels after one more step."""
-    with Pipeline(gl, scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0) as pipeline:
+    default not; with the frame ``settings``), and the texels after one more step."""
+    with Pipeline(gl, scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0,
+                  **settings) as pipeline:
         pipeline.begin(1)
         pipeline.step(steps)
         state = {q: [gl.read(t) for t in b.fronts] for q, b in pipeline.sim.buffers.items()}
@@ -560,10 +561,12 @@ def egl_state(gl, scene, steps, camera=None, drag=None):
     return state, image, after
 
 
-def web_page(browser, tmp_path, scene, state, steps):
-    """The scene's page with EGL's ``state`` loaded as after ``steps`` steps."""
+def web_page(browser, tmp_path, scene, state, steps, **settings):
+    """The scene's page (with the frame ``settings``) with EGL's ``state`` loaded as after
+    ``steps`` steps."""
     path = tmp_path / f"{scene.name}.html"
-    write_page(page_plan(scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0), path)
+    write_page(page_plan(scene, particles=_count(scene, N_3D), size=SIZE_3D, steps=0,
+                         **settings), path)
     page = Page(browser, path)
     assert not page.errors and not page.call("error"), (page.errors, page.call("error"))
     for name, parts in state.items():
@@ -622,6 +625,20 @@ def test_3d_page_draws_and_steps_as_egl_does(gl, browser, tmp_path, scene):
                     assert apart.max() <= 1, f"the life clock differs at {np.argmax(apart)}"
                 assert share <= STEP_OFF, (name, part, share)
         assert page.outside() == [], f"the page asked the network for {page.outside()}"
+    finally:
+        page.close()
+
+
+def test_a_sprite_page_blooms_as_egl_does(gl, browser, tmp_path):
+    """Bloom over the sprites' picture (off by default there), on the page and on EGL."""
+    scene, bloom = Fountain(), Bloom(threshold=0.3, radius=2.0, intensity=1.5)
+    steps = scene.defaults.steps
+    state, image, _ = egl_state(gl, scene, steps, bloom=bloom)
+    _, plain, _ = egl_state(gl, scene, steps)
+    assert np.abs(image.astype(int) - plain).mean() > 2, "bloom should lift the picture"
+    page = web_page(browser, tmp_path, scene, state, steps, bloom=bloom)
+    try:
+        compare_images(image, page.image(SIZE_3D), "fountain, bloomed", folder=tmp_path)
     finally:
         page.close()
 

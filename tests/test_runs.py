@@ -17,10 +17,12 @@ RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-fr
                "--fps", "--save-state", "--load-state", "--workers", "--scheduler",
                "--worker-timeout"}
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
+# Bloom is over every picture: switched off where the density has it on by default, on where
+# the rendering leaves it off.
 COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size",
-          "--trails"}
+          "--trails", "--bloom-threshold", "--bloom-radius", "--bloom-intensity"}
 DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",
-                "--bloom-threshold", "--bloom-radius", "--bloom-intensity", "--vertex-fetch"}
+                "--vertex-fetch"}
 
 
 def help_of(capsys, *argv):
@@ -42,7 +44,8 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
     # Quads have a world size; the flame draws no points.
     common = COMMON - {"--point-size"} if name in ("confetti", "flame") else COMMON
     sprites = {"--vertex-fetch"} if name in ("fountain", "collision3d", "smoke") else set()
-    expected = RUN_OPTIONS | common | params | sprites | (set() if three_d else DENSITY_ONLY)
+    expected = (RUN_OPTIONS | common | params | sprites
+                | ({"--bloom"} if three_d else DENSITY_ONLY))
     assert listed == expected, (listed ^ expected)
     if three_d:
         assert not listed & (DENSITY_ONLY - sprites)
@@ -81,7 +84,9 @@ def test_the_fountain_s_help_is_its_own(capsys):
 @pytest.mark.parametrize("argv, named", [
     (["run", "fountain", "--gradient", "ice"], "--gradient"),
     (["run", "smoke", "--accumulate", "4"], "--accumulate"),
-    (["run", "collision3d", "--no-bloom"], "--no-bloom"),
+    (["run", "collision3d", "--exposure", "2"], "--exposure"),
+    (["run", "fountain", "--bloom", "--no-bloom"], "--no-bloom switches bloom off: leave out "
+                                                   "--bloom"),
     (["run", "fountain", "--gravity", "9.81"], "--gravity must be 3 numbers"),
     (["run", "fountain", "--gravty", "1"], "unrecognized arguments: --gravty"),
     (["run", "smoke", "--lifetime", "4", "6"], "unrecognized arguments: 6"),

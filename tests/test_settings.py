@@ -5,6 +5,7 @@ docs/command-line.md states them, not read from the code."""
 from es2particles.frame.settings import Bloom, FrameSettings, resolve
 from es2particles.run import resolved_settings
 from es2particles.scenes.dejong import DeJong
+from es2particles.scenes.fountain import Fountain
 from es2particles.scenes.sph import Sph
 
 
@@ -17,10 +18,14 @@ def test_given_then_the_scenes_then_the_frameworks():
     assert resolve(FrameSettings(), None, "exposure") == 4.0
     assert resolve(FrameSettings(), None, "intensity") == 1.0
     assert resolve(FrameSettings(), None, "size") == "1024x1024"
-    assert resolve(FrameSettings(bloom=None), None, "bloom") is None
-    bloom = resolve(FrameSettings(), None, "bloom")
+    assert resolve(FrameSettings(bloom=None), None, "bloom", DeJong().rendering()) is None
+    bloom = resolve(FrameSettings(), None, "bloom", DeJong().rendering())
     assert (bloom.threshold, bloom.radius, bloom.intensity) == (0.2, 3.0, 0.8)
     assert Bloom() == bloom
+    # Bloom is over any rendering's picture, off by default where it is not the density's.
+    sprites = Fountain().rendering()
+    assert resolve(FrameSettings(), None, "bloom", sprites) is None
+    assert resolve(FrameSettings(bloom=Bloom(0.5)), None, "bloom", sprites) == Bloom(0.5)
 
 
 def test_a_run_file_writes_what_the_plan_takes():
@@ -30,3 +35,4 @@ def test_a_run_file_writes_what_the_plan_takes():
     assert written["bloom"] == {"threshold": 0.2, "radius": 3.0, "intensity": 0.8}
     assert written["size"] == "1024x1024" and written["seed"] == 0
     assert written["particles"] == 2 ** 20
+    assert resolved_settings(FrameSettings(), Fountain())["bloom"] is False

@@ -74,8 +74,7 @@ def test_the_depth_texture_path_needs_a_context_that_has_it(gl):
         from es2particles.frame.plan import PlanBuilder
         from es2particles.frame.settings import Defaults
 
-        b = PlanBuilder("x", FrameSettings(particles=64, size=(32, 32)), caps,
-                        Sprites.settings)
+        b = PlanBuilder("x", FrameSettings(particles=64, size=(32, 32)), caps, Sprites())
         b.graph_plan = plan.graph
         b.layout, b.format, b.size = plan.layout, plan.format, (32, 32)
         replace(scene.rendering(), scene_depth="texture").plan(b, Defaults())

@@ -89,19 +89,19 @@ def tone_map(ctx, run, total, particles):
     from ..frame.executor import Executor
     from ..frame.pipeline import read_rgb
     from ..frame.plan import PlanBuilder, Resource
-    from ..render.post import plan_post
+    from ..render.post import plan_bloom, plan_post
 
     h, w = total.shape
     scene = run.make_scene()
-    b = PlanBuilder(run.scene, run.settings, ctx.caps, scene.rendering().settings,
-                    scene.defaults)
+    b = PlanBuilder(run.scene, run.settings, ctx.caps, scene.rendering(), scene.defaults)
     intensity = float(b.setting("intensity"))
     density = (total * intensity).astype(np.float32)
     b.resource(Resource("density", "image", (w, h), "r32f", linear=True, data=density,
                         what="the shares' summed counts"))
     present = plan_post(b, "density", particles * intensity * b.setting("accumulate") / (w * h),
-                        b.setting("exposure"), b.setting("gradient"), b.setting("bloom"),
+                        b.setting("exposure"), b.setting("gradient"),
                         scene.rendering().background)
+    present = plan_bloom(b, present, b.setting("bloom"))
     with Executor(ctx, b.finish(present=present)) as executor:
         return read_rgb(ctx, executor.render())
 

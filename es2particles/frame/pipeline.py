@@ -16,8 +16,9 @@ from ..errors import (Es2ParticlesError, FaintWarning, NothingDrawnWarning, Para
 from ..io.nesting import check_nesting
 from . import memory
 from .executor import Executor
-from .plan import PlanBuilder, Resource, plan_frame
-from .settings import DEFAULT, Defaults, FrameSettings, frames_independent, parse_size, resolve
+from .plan import PlanBuilder, Resource, plan_frame, plan_picture
+from .settings import (DEFAULT, Defaults, FrameSettings, check_bloom, frames_independent,
+                       parse_size, resolve)
 from .simulation import Simulation
 
 STEPS_LIMIT = 2 ** 53  # a saved step count beyond any run's (float64 counts it exactly)
@@ -451,7 +452,7 @@ class Renderer:
         self.ctx, self.rendering, self.sim = ctx, rendering, sim
         settings = settings_of(settings, **given)
         defaults = defaults or Defaults()
-        b = PlanBuilder("rendering", settings, ctx.caps, rendering.settings, defaults)
+        b = PlanBuilder("rendering", settings, ctx.caps, rendering, defaults)
         b.graph_plan, b.layout, b.format = sim.plan, sim.layout, sim.fmt
         b.format_note, b.rounding = sim.format_note, sim.rounding
         b.size = parse_size(b.setting("size"), ctx.caps.max_texture_size)
@@ -463,18 +464,20 @@ class Renderer:
         if missing:
             raise ParameterError(f"the renderer reads {', '.join(missing)}, which the "
                                  f"simulation does not hold (it holds {', '.join(sim.buffers)})")
-        # The simulation is made: of the frame settings, a renderer takes the size and those
-        # its rendering declares (the particles, format, steps and seed are the simulation's).
-        uses = {"size", *rendering.settings}
+        # The simulation is made: of the frame settings, a renderer takes the size, bloom and
+        # those its rendering declares (the particles, format, steps and seed are the
+        # simulation's; trails need an animation's frames).
+        uses = {"size", "bloom", *rendering.settings}
         unused = [n for n in settings.given() if n not in uses]
         if unused:
             raise ParameterError(f"{', '.join(unused)}: a renderer over a simulation does not "
-                                 f"use {'it' if len(unused) == 1 else 'them'} (it takes size and "
-                                 f"{', '.join(rendering.settings) or 'nothing else'}: "
+                                 f"use {'it' if len(unused) == 1 else 'them'} (it takes size, "
+                                 f"bloom and {', '.join(rendering.settings) or 'nothing else'}: "
                                  f"{rendering.kind})")
         rendering.check_settings({n: getattr(settings, n) for n in settings.given()
                                   if n in rendering.settings})
-        present = rendering.plan(b, defaults)
+        check_bloom(settings.bloom)
+        present = plan_picture(b, rendering, defaults)
         self.plan = b.finish(present=present, size=b.size, motion=motion)
         self.size = b.size
         self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))

@@ -34,7 +34,7 @@ from .graph import scene_graph
 from .neighbours import interface_lines, plan_neighbours
 from .parts import Ref, Resource, Stage, Vertices, format_bytes  # noqa: F401 (renderers import them here)
 from .motion import Motion
-from .settings import (COMMON_SETTINGS, MAX_STEPS, Defaults, FrameSettings, check_rounding,
+from .settings import (COMMON_SETTINGS, MAX_STEPS, Bloom, Defaults, FrameSettings, check_rounding,
                        check_settings, parse_size, parse_trails, resolve, resolve_format,
                        scene_rendering)
 from .state import Layout
@@ -263,11 +263,12 @@ class PlanBuilder:
     vertex data and stages, with names checked unique; which settings were used; what was
     switched off."""
 
-    def __init__(self, scene_name, settings, caps, uses=(), defaults=None):
+    def __init__(self, scene_name, settings, caps, rendering=None, defaults=None):
         self.scene_name, self.settings, self.caps = scene_name, settings, caps
         # the scene's Defaults, where a setting was not given (the framework's where none)
         self.defaults = defaults if defaults is not None else Defaults()
-        self.uses = set(COMMON_SETTINGS) | set(uses)
+        self.rendering = rendering  # its settings are used, and its defaults of the post's
+        self.uses = set(COMMON_SETTINGS) | set(getattr(rendering, "settings", ()))
         self.resources, self.vertices, self.stages = {}, {}, []
         self.left_out, self.notes = [], []
         self.layout = self.format = self.format_note = self.rounding = self.graph_plan = None
@@ -292,7 +293,7 @@ class PlanBuilder:
         if name not in self.uses:
             raise GraphError(f"the rendering reads setting {name!r} but does not declare it "
                              f"(Rendering.settings: {', '.join(sorted(self.uses))})")
-        return resolve(self.settings, self.defaults, name)
+        return resolve(self.settings, self.defaults, name, self.rendering)
 
     def resource(self, resource):
         if resource.name in self.resources:
@@ -526,7 +527,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     rendering = scene_rendering(scene, settings.particles)
     check_settings(settings, scene, rendering)
     defaults = scene.defaults
-    b = PlanBuilder(scene.name, settings, caps, rendering.settings, defaults)
+    b = PlanBuilder(scene.name, settings, caps, rendering, defaults)
     size = parse_size(b.setting("size"), caps.max_texture_size)
     steps = int(check_range("steps", b.setting("steps"), 0, MAX_STEPS,
                             integer=True))
@@ -542,7 +543,7 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
     count = count if graph.quantities else None
     plan_simulation(b, graph, outputs, count, b.setting("format"),
                     b.setting("rounding"))
-    present = rendering.plan(b, defaults)
+    present = plan_picture(b, rendering, defaults)
     if trails != "off":
         from .trails import plan_trails
 
@@ -561,6 +562,15 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
                     dt=scene.time_step(b.setting("particles")),
                     samples=tuple(dict(scene.sample_uniforms(first + s, b.accumulate))
                                   for s in range(b.accumulate)))
+
+
+def plan_picture(b, rendering, defaults):
+    """The stages of ``rendering``'s picture added to plan builder ``b``, then the post chain
+    every rendering's picture takes (bloom, where the run or the rendering's default asks for it);
+    returns the name of the picture then."""
+    from ..render.post import plan_bloom
+
+    return plan_bloom(b, rendering.plan(b, defaults), b.setting("bloom"))
 
 
 def _cull(stages, present):
@@ -583,6 +593,11 @@ class Rendering:
 
     reads = ("position",)
     settings = ()  # the frame settings it uses beside COMMON_SETTINGS
+    # Bloom over its picture: where a run does not say (None: off), and the parts a run that
+    # switches it on without giving them takes. Over lit meshes a threshold of 0.2 (the
+    # density's) blooms the floor and blurs its checks; at 0.6 the sprites' cores glow.
+    default_bloom = None
+    bloom_parts = Bloom(threshold=0.6)
     has_camera = False
     kind = "a rendering"
 

@@ -131,7 +131,9 @@ def check_rounding(rounding):
 
 
 # Settings every frame uses; a rendering declares the others it uses (``Rendering.settings``).
-COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed", "trails")
+# The post chain every rendering's picture takes (render/post.py), and trails after it.
+POST_SETTINGS = ("bloom", "trails")
+COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed") + POST_SETTINGS
 MAX_SIZE = 2 ** 16  # no context's textures are wider: the bound of a check made before one
 MAX_ACCUMULATE = 10 ** 6
 # Above ~1e6 per particle the tone curve maps every lit pixel to its top: a one-colour image
@@ -211,6 +213,14 @@ class Bloom:
 
 
 MAX_RIBBON = 64  # positions a ribbon keeps, at most
+
+
+def check_bloom(value):
+    """Refuse a bloom setting that is neither a :class:`Bloom`, None (off) nor left as
+    DEFAULT."""
+    if not (value is DEFAULT or value is None or isinstance(value, Bloom)):
+        raise ParameterError(f"bloom must be a Bloom or None (off), got {type(value).__name__}")
+    return value
 
 
 def parse_trails(text):
@@ -343,6 +353,8 @@ def check_settings(settings, scene, rendering=None):
     for name, value in given.items():
         if name == "size":
             parse_size(value, MAX_SIZE)
+        elif name == "bloom":
+            check_bloom(value)
         elif name == "trails" and parse_trails(value)[0] == "ribbons" and scene.stateless:
             raise ParameterError(f"--trails {value}: scene {scene.name!r} places its particles "
                                  "afresh each step, so their positions make no path; use "
@@ -358,16 +370,17 @@ def setting(name, value):
     return SETTINGS[name].convert(value, name)
 
 
-def resolve(settings, defaults, name):
+def resolve(settings, defaults, name, rendering=None):
     """Frame setting ``name`` as a run takes it, resolved in one place: given in ``settings``
     (a :class:`FrameSettings`, or None), else the scene's own default (its ``defaults``, a
     :class:`Defaults`, where it has that field), else the framework's declaration's
-    (:data:`SETTINGS`; bloom: a default :class:`Bloom`)."""
+    (:data:`SETTINGS`; bloom: the ``rendering``'s ``default_bloom``, on for the density's
+    tone-mapped picture and off for the others, whose look it would change)."""
     value = DEFAULT if settings is None else getattr(settings, name)
     if value is not DEFAULT:
         return value
     if defaults is not None and name in {f.name for f in fields(defaults)}:
         return getattr(defaults, name)
     if name == "bloom":
-        return Bloom()
+        return getattr(rendering, "default_bloom", None)
     return SETTINGS[name].default

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from ..errors import CapabilityError, ParameterError, check_range
 from ..frame.graph import format_bytes
 from ..frame.plan import Ref, Rendering, Resource, Stage
-from ..frame.settings import setting
+from ..frame.settings import Bloom, setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 
@@ -54,8 +54,8 @@ def choose_accumulation(caps, channels=1):
 class Density(Rendering):
     """A 2D scene's rendering: every particle one additive point of the run's point size
     (pixels) and intensity into a density target over the world rectangle ``view`` (x0, y0, x1,
-    y1), then the post chain (tone map with the gradient map, bloom) over the ``background``
-    image of the scene's objects, if any. ``reads``: ``position`` (2 components), and ``life``
+    y1), then the tone map with the gradient map over the ``background`` image of the scene's
+    objects, if any (and bloom, on by default here, as over any rendering's picture). ``reads``: ``position`` (2 components), and ``life``
     (age, lifetime) to fade each particle by 1 - age/lifetime and skip unborn and dead ones.
     ``hue``: (quantity, top): each point also adds its quantity's magnitude over [0, top] into a
     second channel, and the tone map colours a pixel by its points' mean of it along the gradient
@@ -74,8 +74,8 @@ class Density(Rendering):
     draw_slice: int = None
     hue: tuple = None
 
-    settings = ("point_size", "intensity", "exposure", "gradient", "bloom", "accumulate",
-                "vertex_fetch")
+    settings = ("point_size", "intensity", "exposure", "gradient", "accumulate", "vertex_fetch")
+    default_bloom = bloom_parts = Bloom()
     has_camera = False
     kind = "it draws 2D density points"
 
@@ -102,21 +102,17 @@ class Density(Rendering):
             check_range("draw_slice", self.draw_slice, 1, integer=True)
 
     def check_settings(self, given):
-        """The density's and the post chain's settings, each of its kind and in its range (the
+        """The density's and its tone map's settings, each of its kind and in its range (the
         point size against the context's range comes when the frame is planned)."""
-        from ..frame.settings import Bloom
         from .ramps import load_ramp
 
         for name, value in given.items():
             if name == "gradient" and value is not None:
                 load_ramp(value)
-            elif name == "bloom" and not (value is None or isinstance(value, Bloom)):
-                raise ParameterError(f"bloom must be a Bloom or None, got "
-                                     f"{type(value).__name__}")
 
     def plan(self, b, defaults):
-        """Add the points stage (accumulated over the run's samples) and the post chain to plan
-        builder ``b``; the last post stage's picture is what the frame presents."""
+        """Add the points stage (accumulated over the run's samples) and the tone map to plan
+        builder ``b``; returns the tone map's picture."""
         from .post import plan_post
 
         caps, layout, size = b.caps, b.layout, b.size
@@ -172,6 +168,5 @@ class Density(Rendering):
         # The tone map's reference: the density of an even spread at unit intensity, so that
         # --intensity brightens (relative to the density's own mean it cancelled out).
         mean = layout.count * scale / (w * h) * b.accumulate
-        return plan_post(b, "density", mean, b.setting("exposure"),
-                         b.setting("gradient"), b.setting("bloom"),
+        return plan_post(b, "density", mean, b.setting("exposure"), b.setting("gradient"),
                          self.background, hue=self.hue[0] if self.hue else None)

@@ -1,16 +1,17 @@
-"""Post stages that turn a density texture into the final image: tone map with a gradient map,
-then bloom, as stages of the frame plan. Each is optional: a switched-off stage makes no texture
-and never runs, and the plan says it was left out.
+"""Post stages, as stages of the frame plan: the density's tone map with its gradient map, which
+turns a density texture into a picture, and bloom, which any rendering's picture takes. Each is
+optional: a switched-off stage makes no texture and never runs, and the plan says it was left
+out.
 
 - Tone map (+ gradient map): log curve of density, then a colour ramp (``ramps.py``) or grey.
-- Bloom: bright pass at half resolution, separable Gaussian blur at 1/2 and 1/4 resolution,
-  composite onto the image.
+- Bloom (:func:`plan_bloom`): bright pass at half resolution, separable Gaussian blur at 1/2 and
+  1/4 resolution, composite onto the picture.
 """
 
 import numpy as np
 
 from ..frame.plan import Ref, Resource, Stage
-from ..frame.settings import Bloom, setting  # noqa: F401 - Bloom: a frame setting's value
+from ..frame.settings import Bloom, setting  # noqa: F401 - Bloom: the value plan_bloom takes
 from .ramps import load_ramp
 
 
@@ -50,16 +51,24 @@ def colouring(b, gradient, background, what="the scene's objects, under the part
     return defines, inputs
 
 
-def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom(),
-              background=None, hue=None):
-    """Add the post chain to plan builder ``b``, reading the density in resource ``source``:
-    the tone map (log curve relative to ``mean_density``, the density of an evenly covered
-    pixel; with the gradient map where ``gradient`` is a ramp, grey where None; over the
-    ``background`` image of the scene's objects where one is given), then bloom's bright, blur x
-    and blur y at 1/2 and 1/4 size and its composite (where ``bloom`` is not None). Returns the
-    name of the last stage's target: the picture. ``hue``: the quantity whose mean over a
-    pixel's points (the density's second channel over its first) picks the colour along the
-    gradient map, the log curve its brightness (None: the curve picks the colour)."""
+def stage(b, name, frag, size, uniforms, inputs, defines=None, what=""):
+    """A post stage of plan builder ``b`` into an RGBA8 target of its own, ``name``, of
+    ``size``; returns the name."""
+    b.resource(Resource(name, "target", size, "rgba8", linear=True))
+    b.stage(Stage(name, "post", frag, defines=defines or {}, inputs=inputs, target=Ref(name),
+                  uniforms=uniforms, what=what))
+    return name
+
+
+def plan_post(b, source, mean_density, exposure, gradient="inferno", background=None,
+              hue=None):
+    """Add the tone map to plan builder ``b``, reading the density in resource ``source``: a
+    log curve relative to ``mean_density``, the density of an evenly covered pixel; with the
+    gradient map where ``gradient`` is a ramp, grey where None; over the ``background`` image
+    of the scene's objects where one is given. Returns the name of its target: the picture.
+    ``hue``: the quantity whose mean over a pixel's points (the density's second channel over
+    its first) picks the colour along the gradient map, the log curve its brightness (None: the
+    curve picks the colour)."""
     exposure = setting("exposure", exposure)
     w, h = b.resources[source].size
     defines, inputs = colouring(b, gradient, background)
@@ -68,38 +77,39 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", bloom=Bloom
     if hue is not None:
         defines["HUE"] = None
 
-    def stage(name, frag, size, uniforms, inputs, defines=None, what=""):
-        b.resource(Resource(name, "target", size, "rgba8", linear=True))
-        b.stage(Stage(name, "post", frag, defines=defines or {}, inputs=inputs,
-                      target=Ref(name), uniforms=uniforms, what=what))
-        return name
-
     ramp_words = f"gradient map {gradient!r}" if ramp else "grey"
     if hue is not None and ramp:
         ramp_words += f" by the points' mean |{hue}|"
-    last = stage("tone map", "post/tonemap.frag", (w, h),
+    return stage(b, "tone map", "post/tonemap.frag", (w, h),
                  {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure}, inputs,
                  defines, f"log curve, exposure {exposure:g}, {ramp_words}"
                  + (", over the scene's objects" if background is not None else ""))
+
+
+def plan_bloom(b, source, bloom):
+    """Add bloom to plan builder ``b`` over the picture in resource ``source`` (any rendering's,
+    RGBA8): its bright, blur x and blur y at 1/2 and 1/4 size and its composite, where ``bloom``
+    (a :class:`Bloom`) is not None. Returns the name of the picture then."""
     if bloom is None:
         b.left_out.append("bloom (switched off)")
-        return last
+        return source
+    w, h = b.resources[source].size
     blurred = []
     for div in (2, 4):
         level = (max(1, w // div), max(1, h // div))
         # Sigma is in texels of each level, so the quarter level glows twice as wide.
         centre, pairs = blur_taps(bloom.radius)
         names = [f"bloom {what} 1/{div}" for what in ("bright", "blur x", "blur y")]
-        stage(names[0], "post/bright.frag", level, {"u_threshold": bloom.threshold},
-              {"u_source": Ref("tone map")}, what=f"threshold {bloom.threshold:g}")
-        stage(names[1], "post/blur.frag", level,
+        stage(b, names[0], "post/bright.frag", level, {"u_threshold": bloom.threshold},
+              {"u_source": Ref(source)}, what=f"threshold {bloom.threshold:g}")
+        stage(b, names[1], "post/blur.frag", level,
               {"u_direction": (1 / level[0], 0.0), "u_centre": centre, "u_taps": pairs},
               {"u_source": Ref(names[0])}, what=f"sigma {bloom.radius:g}")
-        stage(names[2], "post/blur.frag", level,
+        stage(b, names[2], "post/blur.frag", level,
               {"u_direction": (0.0, 1 / level[1]), "u_centre": centre, "u_taps": pairs},
               {"u_source": Ref(names[1])}, what=f"sigma {bloom.radius:g}")
         blurred.append(names[2])
-    return stage("bloom composite", "post/composite.frag", (w, h),
+    return stage(b, "bloom composite", "post/composite.frag", (w, h),
                  {"u_intensity": bloom.intensity / 2},
-                 {"u_source": Ref("tone map"), "u_bloom0": Ref(blurred[0]),
+                 {"u_source": Ref(source), "u_bloom0": Ref(blurred[0]),
                   "u_bloom1": Ref(blurred[1])}, what=f"intensity {bloom.intensity:g}")

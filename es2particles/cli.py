@@ -168,22 +168,27 @@ class _Phases:
         self.start, self.timer = start, None
 
     def __call__(self, what):
-        """Begin phase ``what``, ending the one before; None ends it."""
+        """Begin phase ``what``, ending the one before; None ends it. With SIGINT and SIGTERM
+        held back meanwhile: an interrupt raised inside the timer's cancel, between its lock's
+        acquire and the ``with`` that releases it, left the lock taken, and the cancel on the
+        way out waited for it for ever (1 run in 333 interrupted while writing, under load)."""
         import threading
         import time
 
-        if self.timer is not None:
-            self.timer.cancel()
-            self.timer = None
-        if what is None:
-            return
+        from .io.output import signals_deferred
 
         def say():
             print(f"es2particles: {what} ({time.perf_counter() - self.start:.1f} s into the run)",
                   file=sys.stderr, flush=True)
-        self.timer = threading.Timer(LONG_PHASE_SECONDS, say)
-        self.timer.daemon = True
-        self.timer.start()
+        with signals_deferred():
+            if self.timer is not None:
+                self.timer.cancel()
+                self.timer = None
+            if what is None:
+                return
+            self.timer = threading.Timer(LONG_PHASE_SECONDS, say)
+            self.timer.daemon = True
+            self.timer.start()
 
 
 @contextmanager

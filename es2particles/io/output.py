@@ -479,9 +479,10 @@ class OutputGroup:
 
 @contextlib.contextmanager
 def signals_deferred():
-    """SIGINT and SIGTERM held back while the block runs, then delivered as they would have
-    been (the command turns both into KeyboardInterrupt): a few renames are not cut in two. In a
-    thread other than the main one, where Python runs no signal handler, nothing is changed."""
+    """SIGINT and SIGTERM (and a Python-handled SIGALRM) held back while the block runs, then
+    delivered as they would have been (the command turns both into KeyboardInterrupt): a few
+    renames are not cut in two. In a thread other than the main one, where Python runs no
+    signal handler, nothing is changed."""
     import signal
     import threading
 
@@ -494,7 +495,12 @@ def signals_deferred():
         caught.append(signum)
 
     previous = {}
-    for number in (signal.SIGINT, signal.SIGTERM):
+    # SIGALRM too where Python handles it: the command delivers an interrupt that landed in an
+    # import or a finalizer by a 5 ms timer (cli._terminate_as_interrupt), which fired inside
+    # the writable-folder probe and left it behind (SIGTERM 0.12 s into `run wind`).
+    alarm = [signal.SIGALRM] if hasattr(signal, "SIGALRM") and callable(
+        signal.getsignal(signal.SIGALRM)) else []
+    for number in (signal.SIGINT, signal.SIGTERM, *alarm):
         if signal.getsignal(number) is not None:  # None: a handler set outside Python, kept
             previous[number] = signal.signal(number, hold)
     try:

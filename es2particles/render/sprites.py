@@ -19,7 +19,9 @@ from ..frame.plan import Ref, Rendering, Resource, Stage, Vertices
 from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
+from ..params import param
 from .meshes import plan_mesh_passes, plan_meshes
+from .shafts import ShaftParams
 
 BLENDS = ("add", "over")
 # The renderer's inputs: role -> (the name its shader reads it by, components, define).
@@ -143,6 +145,67 @@ def plan_depth_prepass(b, meshes, size):
     far = (254 / 255, 254 / 255, 0.0, 1.0)  # pack16(1): the far plane
     plan_mesh_passes(b, meshes, "depth", "depth", "sprites/depth.frag", "scene depth", far,
                      "its distance, packed", {"u_planes": ("depth_planes",)})
+
+
+# --- the look a scene's options set --------------------------------------------------------------
+
+def blend_param(default):
+    return param(default, choices=BLENDS, help="sprites glow (add) or cover (over)")
+
+
+def sprite_param(default):
+    return param(default, text=True,
+                 help="sprite texture: fireball, disc, smoke, puff (the chapter's noise volume) "
+                      "or a PNG path")
+
+
+@dataclass(frozen=True)
+class SpriteLook(ShaftParams):
+    """The sprites' look, declared by the rendering: a scene drawn by :class:`Sprites` takes
+    these options (and the light shafts') beside its own, and a scene drawn otherwise lists
+    none of them. A scene re-declares a field with :func:`blend_param` or :func:`sprite_param`
+    for its own default."""
+
+    blend: str = blend_param("add")
+    sprite: str = sprite_param("fireball")
+    soft: float = param(0.0, 0.0, 100.0, unit="m",
+                        help="soft particles (the ARM chapter's): a sprite fades over this "
+                             "distance into the opaque scene behind it; 0: depth-tested")
+    buffer_scale: float = param(1.0, 0.05, 1.0,
+                                help="draw the sprites into a buffer of this share of the "
+                                     "picture's resolution (the chapter's 640x360 under 1080p: "
+                                     "0.33), laid over the picture by --upsample")
+    scene_depth: str = param("auto", choices=SCENE_DEPTHS,
+                             help="where soft sprites read the scene's distance: its depth "
+                                  "texture (OES_depth_texture), a packed pre-pass (plain ES "
+                                  "2.0), or auto: the texture where the context has it")
+    upsample: str = param("bilateral", choices=UPSAMPLES,
+                          help="how a smaller sprite buffer comes back over the picture: the "
+                               "nearest texel, bilinear, or bilateral (following the scene's "
+                               "depth at object edges)")
+    size_law: str = param("perspective", choices=SIZE_LAWS,
+                          help="how sprite sizes follow the camera: perspective (size over the "
+                               "eye distance) or jogl (the seed's: size over the camera's squared "
+                               "xz distance to the target, as a fraction of the first camera's)")
+
+    def check(self):
+        super().check()
+        check_sprite(self.sprite)
+        # Options that act only beside another: each given without it is refused in one line
+        # (it did nothing).
+        declared = self.declarations()
+        if self.scene_depth != declared["scene_depth"].default and self.soft == 0:
+            raise ParameterError("--scene-depth: only soft sprites read the scene's distance; "
+                                 "give --soft D (above 0) with it")
+        if self.upsample != declared["upsample"].default and self.buffer_scale == 1:
+            raise ParameterError("--upsample: only a sprite buffer smaller than the picture "
+                                 "comes back over it; give --buffer-scale below 1 with it")
+
+    def sprite_look(self):
+        """The :class:`Sprites` fields these options set."""
+        return {"blend": self.blend, "sprite": self.sprite, "soft": self.soft,
+                "buffer_scale": self.buffer_scale, "upsample": self.upsample,
+                "scene_depth": self.scene_depth}
 
 
 # --- the declaration ----------------------------------------------------------------------------

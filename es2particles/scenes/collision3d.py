@@ -21,7 +21,8 @@ from ..fields.field3d import Box, Capsule, Sphere, Torus, VoxelField, field_box,
 from ..frame.motion import Motion
 from ..params import param
 from ..render.lamp import Lamp
-from .emitter import Emitter, EmitterParams, blend, eye, lifetimes, sprite, target, time_step
+from ..render.sprites import SpriteLook
+from .emitter import Emitter, EmitterPhysics, blend, eye, lifetimes, sprite, target, time_step
 
 FLOOR_HALF = 4.0  # the floor is [-4, 4]^2; x and z of the position range too
 HEIGHT = 7.0  # y in [-1, 7]: 8 units, the floor y = 0 a code of the 16-bit grid (see fountain.py)
@@ -37,15 +38,14 @@ FIELD_FORMATS = tuple(FIELD_ENCODINGS)
 
 
 @dataclass(frozen=True)
-class Collision3DParams(EmitterParams):
-    """The scene's parameters, SI units (metres, seconds, kilograms)."""
+class Collision3DPhysics(EmitterPhysics):
+    """The scene's physics, object and camera, SI units (metres, seconds, kilograms): what
+    confetti, drawn as quads, shares with it."""
 
     dt: float = time_step(1 / 60, 0.1)
     lifetime: tuple = lifetimes((3.0, 4.0))
     eye: tuple = eye((0.0, 3.2, 6.5))
     target: tuple = target((0.0, 1.0, 0.0))
-    blend: str = blend("over")
-    sprite: str = sprite("disc")
     shape: str = param(DEFAULT_SHAPE, text=True, metavar="SHAPE[+SHAPE...]",
                        help="the object: sphere:CX,CY,CZ,R, box:CX,CY,CZ,HX,HY,HZ, capsule:AX,AY,"
                             "AZ,BX,BY,BZ,R, torus:CX,CY,CZ,MAJOR,MINOR (around y) or a mesh file "
@@ -93,26 +93,10 @@ class Collision3DParams(EmitterParams):
                         metavar="AX,AY,AZ,PERIOD", help="move the object to and fro (period 0: "
                                                         "still)")
     scale: float = param(1.0, 0.05, 20.0, help="the object's scale about its centre")
-    opacity: float = param(0.9, 0.0, 1.0, help="a sprite's opacity at its centre (the chapter's "
-                                               "smoke: low, with --sprite puff --blend add)")
-    shadows: str = param("off", choices=("on", "off"),
-                         help="the chapter's shadows: a lamp whose light map the particles and "
-                              "the object darken, on the object and the floor")
-    lamp: tuple = param((1.6, 5.5, 1.2), (-20.0, 0.5, -20.0), (20.0, 40.0, 20.0), count=3,
-                        unit="m", help="where the lamp hangs (it looks at the object)")
-    lamp_angle: float = param(62.0, 10.0, 150.0, unit="degrees",
-                              help="the lamp's cone, full angle: its disc of light")
 
     def check(self):
         super().check()
         parse_field_format(self.field_format)
-        declared = self.declarations()
-        if self.shadows == "off" and declared["shadows"].option:
-            moved = [d.flag_name for n, d in declared.items() if n in ("lamp", "lamp_angle")
-                     and d.option and getattr(self, n) != d.default]
-            if moved:
-                raise ParameterError(f"{moved[0]}: the lamp lights only the chapter's shadows; "
-                                     "give --shadows on with it")
         r = self.emitter_radius
         if np.any(np.abs(np.asarray(self.emitter)[[0, 2]]) + r > FLOOR_HALF) or \
                 not 0.0 <= self.emitter[1] <= HEIGHT:
@@ -154,6 +138,34 @@ class Collision3DParams(EmitterParams):
                       axis=tuple(map(float, self.spin_axis)), rate=float(self.spin_rate),
                       sway=tuple(map(float, self.sway[:3])), period=float(self.sway[3]),
                       scale=float(self.scale))
+
+
+@dataclass(frozen=True)
+class Collision3DParams(SpriteLook, Collision3DPhysics):
+    """The scene's parameters: its physics, then the look of its sprites and the chapter's
+    lamp."""
+
+    blend: str = blend("over")
+    sprite: str = sprite("disc")
+    opacity: float = param(0.9, 0.0, 1.0, help="a sprite's opacity at its centre (the chapter's "
+                                               "smoke: low, with --sprite puff --blend add)")
+    shadows: str = param("off", choices=("on", "off"),
+                         help="the chapter's shadows: a lamp whose light map the particles and "
+                              "the object darken, on the object and the floor")
+    lamp: tuple = param((1.6, 5.5, 1.2), (-20.0, 0.5, -20.0), (20.0, 40.0, 20.0), count=3,
+                        unit="m", help="where the lamp hangs (it looks at the object)")
+    lamp_angle: float = param(62.0, 10.0, 150.0, unit="degrees",
+                              help="the lamp's cone, full angle: its disc of light")
+
+    def check(self):
+        super().check()
+        declared = self.declarations()
+        if self.shadows == "off":
+            moved = [d.flag_name for n, d in declared.items() if n in ("lamp", "lamp_angle")
+                     and getattr(self, n) != d.default]
+            if moved:
+                raise ParameterError(f"{moved[0]}: the lamp lights only the chapter's shadows; "
+                                     "give --shadows on with it")
 
 
 def parse_field_format(text):
@@ -341,7 +353,7 @@ class Collision3D(Emitter):
                         scale=1.0)
         blocks = () if missing else compression.MEASURED_BLOCKS
         errors = compression.collision_errors(
-            ctx, lambda fmt: Collision3D(replace(still, field_format=fmt), field=self.field),
+            ctx, lambda fmt: type(self)(replace(still, field_format=fmt), field=self.field),
             self.field, blocks=blocks)
         nx, ny, nz = self.field.cells
         lines = [f"field memory of an n^3 field (bits per voxel nominal, bytes with padding) and "

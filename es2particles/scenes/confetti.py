@@ -13,14 +13,16 @@ from ..errors import ParameterError
 from ..frame.settings import Defaults
 from ..params import param
 from ..render.quads import SHAPES, Quads
-from ..render.shafts import backlight
-from .collision3d import Collision3D, Collision3DParams
+from ..render.shafts import ShaftParams, backlight
+from .collision3d import Collision3D, Collision3DPhysics
 from .emitter import time_step
 
 
 @dataclass(frozen=True)
-class ConfettiParams(Collision3DParams):
-    """The 3D collision's parameters, and the paper's."""
+class ConfettiParams(ShaftParams, Collision3DPhysics):
+    """The 3D collision's physics, object and camera, and the paper's: quads cut and lit, so
+    none of the sprites' look (texture, blend, size law, softness, buffer, lamp); the light
+    shafts, which the quads occlude."""
 
     dt: float = time_step(1 / 60, 0.1)
     tumble: float = param(540.0, 0.0, 3600.0, unit="degrees/s",
@@ -30,23 +32,6 @@ class ConfettiParams(Collision3DParams):
                         help=f"the shapes cut from the quads: {', '.join(SHAPES)}")
     launch_spread: float = param(1.2, 0.0, 100.0, unit="m/s", option=False,
                                  help="the launch velocity's random spread")
-    # The lamp's shadows are drawn for sprites; the quads have none yet.
-    shadows: str = param("off", choices=("off",), option=False, help="no shadows for quads")
-    lamp: tuple = param((1.6, 5.5, 1.2), count=3, option=False, help="unused")
-    lamp_angle: float = param(62.0, option=False, help="unused")
-    soft: float = param(0.0, option=False, help="unused: quads are opaque")
-    opacity: float = param(0.9, option=False, help="unused: quads are opaque")
-    scene_depth: str = param("auto", choices=("auto",), option=False,
-                             help="unused: quads are opaque")
-    buffer_scale: float = param(1.0, option=False, help="unused: quads are opaque")
-    upsample: str = param("bilateral", choices=("bilateral",), option=False,
-                          help="unused: quads are opaque")
-    # A quad is cut from paper by its shape and lit, not a sprite's texture: no sprite, blend
-    # or size law (each was listed and did nothing).
-    sprite: str = param("disc", text=True, option=False, help="unused: quads are cut, not textured")
-    blend: str = param("over", choices=("over",), option=False, help="unused: quads are opaque")
-    size_law: str = param("perspective", choices=("perspective",), option=False,
-                          help="unused: a quad's size is its paper's")
 
     def check(self):
         super().check()

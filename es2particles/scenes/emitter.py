@@ -9,7 +9,8 @@ animation, from the ``eye``, ``target`` and ``fov`` parameters); and the renderi
 inputs are roles (``Sprites.roles``) mapped to the member's quantities.
 
 A member's :class:`EmitterParams` subclass declares its parameters with their defaults (its own
-``dt``, ``lifetime``, ``eye`` and ``target`` among them); its ``step`` names the GLSL file;
+``dt``, ``lifetime``, ``eye`` and ``target`` among them; the sprites' look is the rendering's,
+``SpriteLook``, and a member drawn otherwise takes :class:`EmitterPhysics` and its rendering's); its ``step`` names the GLSL file;
 ``declare(g, caps)`` adds its quantities (and scene textures) to the graph; ``uniforms(caps)``
 gives the passes' uniforms; ``begin(count, rng)`` the start of its own quantities.
 """
@@ -21,10 +22,10 @@ import numpy as np
 from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
-from ..params import param
+from ..params import Params, param
 from ..render.camera import Camera, orbit
-from ..render.shafts import ShaftParams, backlight
-from ..render.sprites import SCENE_DEPTHS, SIZE_LAWS, UPSAMPLES, Sprites, check_sprite
+from ..render.shafts import backlight
+from ..render.sprites import SpriteLook, Sprites, blend_param, sprite_param
 from ..twins.life import life_range, longest_life, staggered_births
 from .base import Scene
 
@@ -47,22 +48,15 @@ def target(default):
     return param(default, -1e3, 1e3, count=3, unit="m", help="the point the camera looks at")
 
 
-def blend(default):
-    return param(default, choices=("add", "over"), help="sprites glow (add) or cover (over)")
-
-
-def sprite(default):
-    return param(default, text=True,
-                 help="sprite texture: fireball, disc, smoke, puff (the chapter's noise volume) "
-                      "or a PNG path")
+# A member re-declares the sprites' look with these (render/sprites.py: SpriteLook).
+blend, sprite = blend_param, sprite_param
 
 
 @dataclass(frozen=True)
-class EmitterParams(ShaftParams):
-    """What every member declares, each with its own defaults (the fountain's here; a member
-    re-declares a field with :func:`time_step`, :func:`lifetimes`, :func:`eye`, :func:`target`,
-    :func:`blend` or :func:`sprite`): the time step, the lifetimes, the camera and the sprites'
-    look."""
+class EmitterPhysics(Params):
+    """What every member declares beside its look, each with its own defaults (the fountain's
+    here; a member re-declares a field with :func:`time_step`, :func:`lifetimes`, :func:`eye` or
+    :func:`target`): the time step, the lifetimes and the camera."""
 
     dt: float = time_step(1 / 30)
     lifetime: tuple = lifetimes((2.0, 2.5))
@@ -71,31 +65,9 @@ class EmitterParams(ShaftParams):
     eye: tuple = eye((0.0, 3.0, 7.5))
     target: tuple = target((0.0, 1.4, 0.0))
     fov: float = param(45.0, 1.0, 179.0, unit="degrees", help="the camera's vertical field of view")
-    blend: str = blend("add")
-    sprite: str = sprite("fireball")
-    soft: float = param(0.0, 0.0, 100.0, unit="m",
-                        help="soft particles (the ARM chapter's): a sprite fades over this "
-                             "distance into the opaque scene behind it; 0: depth-tested")
-    buffer_scale: float = param(1.0, 0.05, 1.0,
-                                help="draw the sprites into a buffer of this share of the "
-                                     "picture's resolution (the chapter's 640x360 under 1080p: "
-                                     "0.33), laid over the picture by --upsample")
-    scene_depth: str = param("auto", choices=SCENE_DEPTHS,
-                             help="where soft sprites read the scene's distance: its depth "
-                                  "texture (OES_depth_texture), a packed pre-pass (plain ES "
-                                  "2.0), or auto: the texture where the context has it")
-    upsample: str = param("bilateral", choices=UPSAMPLES,
-                          help="how a smaller sprite buffer comes back over the picture: the "
-                               "nearest texel, bilinear, or bilateral (following the scene's "
-                               "depth at object edges)")
-    size_law: str = param("perspective", choices=SIZE_LAWS,
-                          help="how sprite sizes follow the camera: perspective (size over the "
-                               "eye distance) or jogl (the seed's: size over the camera's squared "
-                               "xz distance to the target, as a fraction of the first camera's)")
 
     def check(self):
         super().check()
-        check_sprite(self.sprite)
         lo, hi = self.lifetime
         longest = longest_life(self.dt)
         if not (self.dt <= lo <= hi <= longest):
@@ -104,15 +76,13 @@ class EmitterParams(ShaftParams):
                                  f"--dt), got {lo:g},{hi:g}")
         if np.allclose(self.eye, self.target):
             raise ParameterError("--eye and --target must differ")
-        # Options that act only beside another: each given without it is refused in one line
-        # (it did nothing).
-        declared = self.declarations()
-        if self.scene_depth != declared["scene_depth"].default and self.soft == 0:
-            raise ParameterError("--scene-depth: only soft sprites read the scene's distance; "
-                                 "give --soft D (above 0) with it")
-        if self.upsample != declared["upsample"].default and self.buffer_scale == 1:
-            raise ParameterError("--upsample: only a sprite buffer smaller than the picture "
-                                 "comes back over it; give --buffer-scale below 1 with it")
+
+
+@dataclass(frozen=True)
+class EmitterParams(SpriteLook, EmitterPhysics):
+    """A member drawn as sprites: its physics and camera, then the sprites' look and the light
+    shafts (declared by the rendering, ``SpriteLook``); a member drawn otherwise (confetti's
+    quads) takes :class:`EmitterPhysics` and its own rendering's look."""
 
 
 def camera_of(p, frame, frames):
@@ -213,9 +183,7 @@ class Emitter(Scene):
         lamp = sprites.get("lamp")
         shafts = p.shafts_declared(lamp.position if lamp is not None
                                    else backlight(p.eye, p.target))
-        return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), "blend": p.blend,
-                          "sprite": p.sprite, "soft": p.soft, "buffer_scale": p.buffer_scale,
-                          "upsample": p.upsample, "scene_depth": p.scene_depth,
+        return Sprites(**{"attenuation": (0.0, 0.0, 1.0 / d0 ** 2), **p.sprite_look(),
                           "shafts": shafts, **sprites, **law,
                           "meshes": tuple(self.meshes())})
 

@@ -406,6 +406,21 @@ MUTATIONS = (
                "np.bincount(j, a ** 2, n)",
                "    density = np.bincount(i, a ** 3, n) + np.bincount(j, a ** 2, n)"),),
              ("tests/test_liquid.py",)),
+    Mutation("metaballs-threshold-half", "liquid", "the metaball surface at half the author's "
+             "threshold: the liquid swells",
+             (("shaders/glsl100/metaballs/threshold.frag", "step(u_threshold, ",
+               "step(0.5 * u_threshold, "),),
+             ("tests/test_metaballs.py",)),
+    Mutation("metaballs-blur-spread", "liquid", "the author's blur taps a texel further apart",
+             (("es2particles/render/metaballs.py",
+               "pairs = [(float(k * strong), float(w))", "pairs = [(float(k * (strong + 1)), "
+               "float(w))"),),
+             ("tests/test_metaballs.py",)),
+    Mutation("metaballs-shadow-rim-flipped", "liquid",
+             "the rim shadow inside deepens towards the middle, not the rim",
+             (("shaders/glsl100/metaballs/liquid.frag", "float rim = 1.0 - alpha;",
+               "float rim = alpha;"),),
+             ("tests/test_metaballs.py",)),
     # --- sph -------------------------------------------------------------------------------------
     Mutation("sph-kernel-twice", "sph", "the kernel normalised as 7 / (2 pi h^2): every density doubled",
              ((SPH, "return KERNEL_NORM * t * t * t * t * (2.0 * q + 1.0);",

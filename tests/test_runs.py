@@ -46,6 +46,9 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
     sprites = {"--vertex-fetch"} if name in ("fountain", "collision3d", "smoke") else set()
     expected = (RUN_OPTIONS | common | params | sprites
                 | ({"--bloom"} if three_d else DENSITY_ONLY))
+    if name == "liquid":  # metaballs: discs of the buffer's size, no tone map
+        expected = RUN_OPTIONS | (COMMON - {"--point-size"}) | params | {"--bloom",
+                                                                          "--vertex-fetch"}
     assert listed == expected, (listed ^ expected)
     if three_d:
         assert not listed & (DENSITY_ONLY - sprites)
@@ -55,7 +58,7 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
 STATED = {"dejong": ("2^20", "1"), "clifford": ("2^20", "1"), "collision": ("2^17", "2"),
           "fountain": ("2^11", "20"), "collision3d": ("2^14", "9"), "confetti": ("2^13", None),
           "smoke": ("2^15", "16"), "wind": ("2^20", "1"), "boids": ("2^14", "2"),
-          "liquid": ("2^14", "4"), "sph": ("3200", "2"),
+          "liquid": ("2^14", None), "sph": ("3200", "2"),
           "flame": ("none (noise), 2^16 (smoke)", None)}
 
 

@@ -568,7 +568,7 @@ def plan_picture(b, rendering, defaults):
     """The stages of ``rendering``'s picture added to plan builder ``b``, then the post chain
     every rendering's picture takes (bloom, where the run or the rendering's default asks for it);
     returns the name of the picture then."""
-    from ..render.post import plan_bloom
+    from .bloom import plan_bloom
 
     return plan_bloom(b, rendering.plan(b, defaults), b.setting("bloom"))
 

@@ -50,6 +50,18 @@ def choose_accumulation(caps, channels=1):
     raise CapabilityError(f"no format can be blended into on {caps.renderer}")
 
 
+def vertex_fetch(b):
+    """Whether the particles' vertex shader reads the state by vertex texture fetch, from the
+    ``vertex_fetch`` setting of plan builder ``b`` (auto: where the context has vertex texture
+    units); ``on`` without them is refused in one line."""
+    fetch = setting("vertex_fetch", b.setting("vertex_fetch"))
+    units = b.caps.max_vertex_texture_units
+    if fetch == "on" and units < 1:
+        raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
+                              "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
+    return fetch == "on" or (fetch == "auto" and units >= 1)
+
+
 @dataclass(frozen=True)
 class Density(Rendering):
     """A 2D scene's rendering: every particle one additive point of the run's point size
@@ -116,12 +128,7 @@ class Density(Rendering):
         from .post import plan_post
 
         caps, layout, size = b.caps, b.layout, b.size
-        fetch = setting("vertex_fetch", b.setting("vertex_fetch"))
-        units = caps.max_vertex_texture_units
-        if fetch == "on" and units < 1:
-            raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
-                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
-        fetch = fetch == "on" or (fetch == "auto" and units >= 1)
+        fetch = vertex_fetch(b)
         lo, hi = caps.point_size_range
         point_size = check_range("point_size", setting(
             "point_size", b.setting("point_size")), lo, hi)

@@ -21,6 +21,7 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
+from ..render.metaballs import MetaballLook, Metaballs
 from .base import Control, Push, Scene
 
 SHADER = "liquid/liquid.frag"
@@ -35,8 +36,8 @@ GRAVITY_TILT = 8.0  # box/s^2: the gravity sliders and keys reach this each way 
 
 
 @dataclass(frozen=True)
-class LiquidParams(Params):
-    """The liquid's parameters (lengths in box units, time in seconds)."""
+class LiquidPhysics(Params):
+    """The liquid's physics (lengths in box units, time in seconds)."""
 
     box: tuple = param((1.0, 1.0), 0.01, 1e3, count=2, metavar="W,H",
                        help="the container from (0, 0)")
@@ -76,18 +77,27 @@ class LiquidParams(Params):
                                  "see the whole box")
 
 
+@dataclass(frozen=True)
+class LiquidParams(MetaballLook, LiquidPhysics):
+    """The liquid's physics, then its metaballs' look (declared by the rendering)."""
+
+
 class Liquid(Scene):
     """Clavet 2005's liquid: double density relaxation through neighbour grids."""
 
     name = "liquid"
-    Params = LiquidParams
-    defaults = Defaults(particles=2 ** 14, point_size=4.0, steps=600)
+    Params, renders = LiquidParams, Metaballs
+    defaults = Defaults(particles=2 ** 14, steps=600)
     saves = ("rho",)  # the GPU's own densities, at the predicted positions of the last step
 
     def __init__(self, params=None, **given):
         super().__init__(params, **given)
         w, h = self.params.box
         self.view = (0.0, 0.0, w, h)
+
+    def rendering(self):
+        """The author's metaballs over the box."""
+        return Metaballs(self.view, self.params.buffer, self.params.colour)
 
     def radius_for(self, count):
         """h: --radius, or the author's 2 sqrt(area / N)."""

@@ -9,6 +9,8 @@ of the set it found: how many, the sum of their indices and the sum of (i mod 61
 (each an integer below 2^24, exact in float32); a missed or extra neighbour changes the count.
 """
 
+import re
+
 import numpy as np
 import pytest
 
@@ -249,3 +251,18 @@ def test_a_grid_built_from_this_step_follows_its_writers_and_misuse_is_named(tmp
         g.neighbours("more", "n", cell=0.1)
     with pytest.raises(ParameterError, match="cell must be > 0"):
         g.neighbours("zero", "position", cell=0.0)
+
+
+@pytest.mark.parametrize("radius, words", [
+    (0.002, "500x500x500 cells, more than 2^24: use larger cells (the largest of --radii)"),
+    (0.005, "a side: use larger cells (the largest of --radii)")])
+def test_too_many_cells_are_refused_naming_what_sets_them(radius, words):
+    """A grid of more cells than 2^24, or whose table (W x H D texels) is wider than the
+    context's textures, is refused in one line naming the scene's option that sets the cells."""
+    from es2particles.frame.plan import plan_frame
+    from es2particles.frame.settings import FrameSettings
+    from es2particles.scenes.boids import Boids
+
+    with pytest.raises(ParameterError, match=re.escape(words)):
+        plan_frame(Boids(dimensions=3, radii=(radius,) * 3),
+                   FrameSettings(particles=1024, size=(32, 32)))

@@ -308,7 +308,7 @@ class PassGraph:
                                          sampling, clamps)
         return self.quantities[name]
 
-    def neighbours(self, name, of, cell, box=None, bound=64, this_step=False):
+    def neighbours(self, name, of, cell, box=None, bound=64, this_step=False, sets=""):
         """Declare neighbour grid ``name``: square cells of side ``cell`` over ``box`` ((x0, y0),
         (x1, y1), or in 3D ((x0, y0, z0), (x1, y1, z1)); default the range of ``of``, grown to
         whole cells) holding the particles by the cell of their quantity ``of`` (2 or 3
@@ -319,8 +319,9 @@ class PassGraph:
         outside the box takes the nearest cell, as particles outside it are held: the search
         stays exact. ``bound``: the most particles a pass's loop visits in a row of 3 cells
         (GLSL ES 1.00 loops have constant bounds); a row holding more is an error when checked
-        (:meth:`~es2particles.frame.simulation.Simulation.check_neighbours`). Returns the
-        :class:`~es2particles.frame.neighbours.NeighbourGrid`."""
+        (:meth:`~es2particles.frame.simulation.Simulation.check_neighbours`). ``sets``: what
+        sets the cell (a scene's option: "--radii's largest"), named where too many cells are
+        refused. Returns the :class:`~es2particles.frame.neighbours.NeighbourGrid`."""
         if name in self.neighbour_grids or name in self.quantities:
             raise GraphError(f"neighbour grid {name!r} is declared twice" if name in
                              self.neighbour_grids else f"neighbour grid {name!r}: a quantity "
@@ -331,7 +332,7 @@ class PassGraph:
                              f"or 3 components on the particles, got {of!r}"
                              + ("" if source is None else f" ({source.components} components"
                                 f"{', on grid ' + source.domain.name if source.domain else ''})"))
-        n = NeighbourGrid.over(name, source, cell, box, bound, this_step)
+        n = NeighbourGrid.over(name, source, cell, box, bound, this_step, sets)
         self.grid(name, n.grid.shape, n.grid.box)
         self.neighbour_grids[name] = n
         # The grid's build is a node of the graph: it "writes" the table (a quantity only to the

@@ -41,18 +41,25 @@ MAX_BOUND = 2 ** 16  # particles a row: beyond, a driver's loop of that length i
 class NeighbourGrid:
     """A neighbour grid's declaration (see the module's docstring): ``name``, the particles'
     quantity ``of`` it keys, its ``grid`` of square cells, the ``bound`` of a loop's row, and
-    whether it is built from this step's value of ``of`` (``this_step``) or last step's."""
+    whether it is built from this step's value of ``of`` (``this_step``) or last step's;
+    ``sets``: what sets its cells (a scene's option, for the refusals that name a way out)."""
 
     name: str
     of: str
     grid: Grid
     bound: int
     this_step: bool = False
+    sets: str = ""
+
+    @property
+    def larger_cells(self):
+        """How a refusal says to make the cells larger: naming what sets them, where known."""
+        return f"larger cells ({self.sets})" if self.sets else "larger cells"
 
     @classmethod
-    def over(cls, name, quantity, cell, box=None, bound=64, this_step=False):
+    def over(cls, name, quantity, cell, box=None, bound=64, this_step=False, sets=""):
         """The grid of cells of side ``cell`` over ``box`` (default: ``quantity``'s range),
-        grown to whole cells from its lower left."""
+        grown to whole cells from its lower left; ``sets``: what sets the cell, for messages."""
         cell = check_range(f"neighbour grid {name!r} cell", cell, 0.0, None)
         if not cell > 0:
             raise ParameterError(f"neighbour grid {name!r}: cell must be > 0, got {cell}")
@@ -76,9 +83,9 @@ class NeighbourGrid:
         if math.prod(shape) > 2 ** 24:
             raise ParameterError(f"neighbour grid {name!r}: cells of {cell:g} over {box} make "
                                  f"{'x'.join(map(str, shape))} cells, more than 2^24: use "
-                                 "larger cells")
+                                 + (f"larger cells ({sets})" if sets else "larger cells"))
         grid = Grid(name, shape, (lo, tuple(a + n * cell for a, n in zip(lo, shape))))
-        return cls(name, quantity.name, grid, bound, bool(this_step))
+        return cls(name, quantity.name, grid, bound, bool(this_step), str(sets))
 
     @property
     def cell(self):
@@ -131,7 +138,7 @@ def order_of(n, quantity, layout, caps, fmt):
             f"neighbour grid {n.name!r} has {'x'.join(map(str, n.grid.shape))} = {n.cells} "
             f"cells, more than the {keys} an "
             f"{order.fmt} sort order over {layout.count} particles can key "
-            f"({order.describe_keys()}): use larger cells, fewer particles, or a float state "
+            f"({order.describe_keys()}): use {n.larger_cells}, fewer particles, or a float state "
             "format (rgba32f keys 2^24 cells)")
     return order
 

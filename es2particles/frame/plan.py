@@ -401,7 +401,7 @@ def plan_simulation(builder, graph, outputs, count, fmt, rounding):
                                  f"{'x'.join(map(str, n.grid.shape))} cells is "
                                  f"{n.table_size[0]}x{n.table_size[1]} texels; this context's "
                                  f"textures are at most {caps.max_texture_size} a side: use "
-                                 "larger cells")
+                                 f"{n.larger_cells}")
 
     def layout_of(quantity):
         return layout if quantity.domain is None else builder.layouts[quantity.domain.name]

@@ -107,7 +107,8 @@ class Boids(Scene):
         g = PassGraph()
         g.quantity("position", (0.0,) * d, box)
         g.quantity("velocity", -top, top, components=d)
-        g.neighbours("flock", "position", cell=max(p.radii), bound=p.bound)
+        g.neighbours("flock", "position", cell=max(p.radii), bound=p.bound,
+                     sets="the largest of --radii")
         rules = {"u_radii": tuple(map(float, p.radii)), "u_weights": tuple(map(float, p.weights)),
                  "u_speed": tuple(map(float, p.speed)), "u_box": box, "u_dt": float(p.dt)}
         defines = {"BOIDS_3D": None} if d == 3 else {}

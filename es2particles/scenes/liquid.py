@@ -135,9 +135,10 @@ class Liquid(Scene):
         # density, near density: 64 is ~13 rho0 at the default, a liquid crushed flat (clamped
         # beyond, said at the end of a run); the codes are 0.001 apart
         g.quantity("rho", 0.0, 64.0, components=2, clamps="hi")  # a lone particle's near is 0
-        g.neighbours("here", "position", cell=h, bound=p.bound)
+        sets = "h: --radius, or fewer --particles"
+        g.neighbours("here", "position", cell=h, bound=p.bound, sets=sets)
         g.neighbours("ahead", "predicted", cell=h, box=((0.0, 0.0), (w, hb)), bound=p.bound,
-                     this_step=True)
+                     this_step=True, sets=sets)
         dt = {"u_dt": float(self.dt_for(count))}
         g.add("viscosity", SHADER, writes="velocity", reads=["position", "velocity"],
               neighbours="here", defines={"VISCOSITY": None},

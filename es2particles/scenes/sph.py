@@ -154,7 +154,8 @@ class Sph(Scene):
         g.quantity("position", (0.0,) * d, box, clamps="none")  # the walls are its edges
         g.quantity("velocity", -top, top, components=d)
         g.quantity("rho", 0.0, 2.0 * RHO0, components=1)  # kg/m^3
-        g.neighbours("water", "position", cell=2.0 * h, bound=p.bound)
+        g.neighbours("water", "position", cell=2.0 * h, bound=p.bound,
+                     sets="twice h, from --spacing")
         kernel = {"u_h": float(h), "u_mass": float(p.mass)}
         dims = {"SPH_3D": None} if d == 3 else {}
         gravity = (0.0, -G, 0.0)[:d]

@@ -551,13 +551,8 @@ def egl_state(gl, scene, steps, camera=None, drag=None, **settings):
         pipeline.begin(1)
         pipeline.step(steps)
         state = {q: [gl.read(t) for t in b.fronts] for q, b in pipeline.sim.buffers.items()}
-        env = pipeline.executor.frame(camera or pipeline.camera(0, 1), drag)
-        pipeline.executor.render(env)
-        image = pipeline.image() if camera is None and drag is None else None
-        if image is None:
-            from es2particles.frame.pipeline import read_rgb
-
-            image = read_rgb(gl, pipeline.executor.front(pipeline.plan.present))
+        pipeline.render(camera=camera, drag=drag)  # once: an accumulating frame steps
+        image = pipeline.image()
         pipeline.step(1)
         after = {q: [np.frombuffer(gl.read(t), np.uint8).reshape(-1, 4) for t in b.fronts]
                  for q, b in pipeline.sim.buffers.items()}
@@ -628,6 +623,21 @@ def test_3d_page_draws_and_steps_as_egl_does(gl, browser, tmp_path, scene):
                     assert apart.max() <= 1, f"the life clock differs at {np.argmax(apart)}"
                 assert share <= STEP_OFF, (name, part, share)
         assert page.outside() == [], f"the page asked the network for {page.outside()}"
+    finally:
+        page.close()
+
+
+def test_an_accumulated_flame_page_averages_its_marches_as_egl_does(gl, browser, tmp_path):
+    """--accumulate 4 on the flame: the page draws each further march after a step of its own
+    into the float sum, as Executor.render does, and presents the average."""
+    scene = Flame(march_steps=16)
+    steps = scene.defaults.steps
+    _, image, _ = egl_state(gl, scene, steps, accumulate=4)
+    _, single, _ = egl_state(gl, scene, steps)
+    assert np.abs(image.astype(int) - single).mean() > 0.2, "the average should differ"
+    page = web_page(browser, tmp_path, scene, {}, steps, accumulate=4)
+    try:
+        compare_images(image, page.image(SIZE_3D), "flame, 4 marches averaged", folder=tmp_path)
     finally:
         page.close()
 

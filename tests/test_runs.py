@@ -46,12 +46,16 @@ def test_help_lists_only_the_options_the_scene_uses(capsys, name):
     sprites = {"--vertex-fetch"} if name in ("fountain", "collision3d", "smoke") else set()
     expected = (RUN_OPTIONS | common | params | sprites
                 | ({"--bloom"} if three_d else DENSITY_ONLY))
+    if name == "flame":  # the march: its dithered marches averaged over --accumulate steps
+        expected = RUN_OPTIONS | (COMMON - {"--point-size"}) | params | {"--bloom",
+                                                                          "--accumulate"}
     if name == "liquid":  # metaballs: discs of the buffer's size, no tone map
         expected = RUN_OPTIONS | (COMMON - {"--point-size"}) | params | {"--bloom",
                                                                           "--vertex-fetch"}
     assert listed == expected, (listed ^ expected)
     if three_d:
-        assert not listed & (DENSITY_ONLY - sprites)
+        averages = {"--accumulate"} if name == "flame" else set()
+        assert not listed & (DENSITY_ONLY - sprites - averages)
 
 
 # Each scene's defaults as the README and docs state them, typed here, not read from the code.

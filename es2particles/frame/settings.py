@@ -174,8 +174,9 @@ SETTINGS = {d.name: d for d in (
              help="gradient map: a ramp name (inferno, ice, viridis, gold, grey, spectral), "
                   "colours '#000,#f80,#fff', a PNG path, or 'none' (grey)"),
     _setting("accumulate", 1, 1, MAX_ACCUMULATE, integer=True,
-             help="samples summed into each image: this step's density and the next K-1 "
-                  "steps' (reseeded attractors shift their grid for each); 1/sqrt(K) the noise"),
+             help="samples in each image: this step's and the next K-1 steps' (a density sums "
+                  "them, and reseeded attractors shift their grid for each; a flame averages "
+                  "its marches, whose dither moves each step); 1/sqrt(K) the noise"),
     _setting("vertex_fetch", "auto", choices=("auto", "on", "off"),
              help="how the points and sprites read the state: on, vertex texture fetch (the "
                   "article's way); off, the state read back into a vertex buffer each frame (for "

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..errors import CapabilityError, ParameterError, check_range
 from ..frame.plan import Ref, Rendering, Resource, Stage
+from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 
@@ -41,6 +42,8 @@ RAMP_SIZE = 256
 WAVELENGTHS = (610e-9, 550e-9, 465e-9)  # red, green, blue (m)
 # The splat's accumulation formats, in order: two channels (count, heat) that do not saturate.
 SPLAT_FORMATS = ("rgba32f", "rgba16f", "rgba8")
+# The temporal accumulation's sum of K pictures, each weighed 1/K: float where it blends.
+SUM_FORMATS = ("rgba32f", "rgba16f", "rgba8")
 
 
 def planck(wavelength, kelvin):
@@ -97,9 +100,9 @@ class Flame(Rendering):
     up: tuple = (0.0, 1.0, 0.0)
     fov: float = 45.0
 
-    settings = ()
+    settings = ("accumulate",)
     has_camera = True
-    kind = "it marches a flame through a volume"
+    kind = "it marches a flame through a volume: no point size, tone map or gradient map"
 
     def __post_init__(self):
         if self.source not in SOURCES:
@@ -154,10 +157,28 @@ class Flame(Rendering):
         frame = {"u_eye": ("eye",), "u_forward": ("forward",)}
         if self.source == "noise" or self.jitter:  # the noise's clock, the dither's frame
             frame["u_step"] = ("step",)
-        b.stage(Stage("flame", "flame", "flame/march.frag", defines=defines, inputs=inputs,
-                      target=Ref("flame"), uniforms=uniforms, frame_uniforms=frame,
-                      what=f"{self.steps} segments a ray through the {self.source} field"
-                           + (", their samples dithered" if self.jitter else ", midpoints")))
+        # Temporal accumulation: the marches of this step and the next K-1 steps' (the dither's
+        # phase moves each step, and the field with it), each weighed 1/K into a sum.
+        samples = b.accumulate = setting("accumulate", b.setting("accumulate"))
+        what = (f"{self.steps} segments a ray through the {self.source} field"
+                + (", their samples dithered" if self.jitter else ", midpoints"))
+        if samples == 1:
+            b.stage(Stage("flame", "flame", "flame/march.frag", defines=defines, inputs=inputs,
+                          target=Ref("flame"), uniforms=uniforms, frame_uniforms=frame,
+                          what=what))
+            return "flame"
+        fmt = next(f for f in SUM_FORMATS if f == "rgba8" or b.caps.blendable.get(f))
+        b.resource(Resource("flame sum", "target", (w, h), fmt, linear=True,
+                            what=f"{samples} marches, each weighed 1/{samples}"))
+        b.stage(Stage("flame", "flame", "flame/march.frag",
+                      defines={**defines, "ACCUMULATE": None}, inputs=inputs,
+                      target=Ref("flame sum"), uniforms={**uniforms, "u_weight": 1 / samples},
+                      frame_uniforms=frame, state=DrawState(blend="add"),
+                      clear=(0.0, 0.0, 0.0, 0.0), samples=samples,
+                      what=f"{what}; {samples} steps' marches averaged in {fmt}"))
+        b.stage(Stage("flame average", "post", "post/present.frag",
+                      inputs={"u_source": Ref("flame sum")}, target=Ref("flame"),
+                      what="the average, in RGBA8"))
         return "flame"
 
     def _plan_splat(self, b):

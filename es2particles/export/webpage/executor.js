@@ -723,6 +723,16 @@
       draw(stage, p, vertices, 0, count);
       if (swaps) swap(name);
     }
+    // An accumulating stage (a flame's marches averaged): each further sample after a step of
+    // its own, added into the same target, as Executor.render draws them.
+    for (let s = 1; s < stage.samples; s += 1) {
+      setSample(s);
+      step();
+      use(p, values(stage, r.width / r.height), inputs(stage));
+      bindTarget(back(name, part), null, r.depth);
+      draw(stage, p, vertices, 0, count);
+    }
+    if (stage.samples > 1) setSample(0);  // the next frame starts as a plain one would
     return null;
   }
 

@@ -26,6 +26,9 @@ uniform sampler2D u_ramp; // the blackbody colour by temperature, 256 texels
 #if defined(SOURCE_NOISE) || defined(JITTER)
 uniform float u_step;     // steps run: the noise's clock, the dither's frame
 #endif
+#ifdef ACCUMULATE
+uniform float u_weight;   // 1 / K: this march's share of the K steps' average
+#endif
 
 #ifdef JITTER
 #include "lib/bayer.glsl"
@@ -113,4 +116,7 @@ void main()
     }
     // The tone curve 1 - exp(-L): a hot core goes towards white, never past it.
     gl_FragColor = vec4(1.0 - exp(-(light * u_medium.y + through * u_background)), 1.0);
+#ifdef ACCUMULATE
+    gl_FragColor *= u_weight;  // one of the K steps' marches summed into the average
+#endif
 }

@@ -523,7 +523,7 @@ SCENES_3D = [Fountain(), Collision3D(), Collision3D(shadows="on"),
              Collision3D(sprite="puff", blend="add", opacity=0.1, soft=0.1, buffer_scale=0.5,
                          scene_depth="packed"),
              Confetti(), Smoke(), Confetti(shafts="on"), Fountain(shafts="on", shaft_scale=0.5),
-             Flame(), Flame(source="smoke", march_steps=24, cells=24)]
+             Flame(), Flame(source="smoke", march_steps=24, cells=24), Flame(shafts="on")]
 SIZE_3D = (256, 256)
 N_3D = 4096
 # Measured on Chromium's SwiftShader against llvmpipe (README): drawing the same state differs

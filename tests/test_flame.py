@@ -187,6 +187,26 @@ def test_accumulated_marches_are_the_mean_of_the_steps_marches(gl):
     assert mean < single / 2
 
 
+def test_the_flame_lights_its_shafts(gl):
+    """--shafts on: the shafts' source is the flame's own picture, texel for texel (nothing in
+    front of it), and the composite only adds light, most near the flame."""
+    with Pipeline(gl, Flame(shafts="on"), size=(96, 96), steps=30) as p:
+        p.warm_up()
+        p.render()
+        lit = p.image().astype(int)
+        source, flame = (np.frombuffer(gl.read(p.executor.front(name), components=3),
+                                       np.uint8) for name in ("shaft occluders", "flame"))
+    assert np.array_equal(source, flame)
+    plain = np.frombuffer(flame, np.uint8).reshape(96, 96, 3)[::-1].astype(int)
+    added = lit - plain
+    assert added.min() >= -1 and added.mean() > 1
+    bright = plain.max(axis=2) > 100
+    near = np.zeros_like(bright)
+    ys, xs = np.nonzero(bright)
+    near[max(ys.min() - 8, 0):ys.max() + 9, max(xs.min() - 8, 0):xs.max() + 9] = True
+    assert added[near & ~bright].mean() > 1.5 * added[~near].mean()  # 35 against 20 codes
+
+
 def test_every_flame_option_acts(gl):
     """Each option of the noise flame, moved off its default, changes the picture."""
     base = _flame(gl, size=(48, 48))

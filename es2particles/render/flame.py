@@ -68,6 +68,15 @@ def ramp_image(size=RAMP_SIZE):
     return image
 
 
+def flame_light(lo, hi):
+    """Where the light shafts the flame lights stream from: the middle of its box's lower part
+    (a 0.3 of the way up), where the flame is brightest."""
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    centre = (lo + hi) / 2
+    centre[1] = lo[1] + 0.3 * (hi[1] - lo[1])
+    return tuple(float(v) for v in centre)
+
+
 def atlas_shape(cells):
     """(tiles across, tiles down) of the atlas of ``cells`` z slices of ``cells``^2 texels."""
     across = int(np.ceil(np.sqrt(cells)))
@@ -99,6 +108,7 @@ class Flame(Rendering):
     per_particle: float = 0.125
     up: tuple = (0.0, 1.0, 0.0)
     fov: float = 45.0
+    shafts: object = None
 
     settings = ("accumulate",)
     has_camera = True
@@ -136,7 +146,20 @@ class Flame(Rendering):
         return out
 
     def plan(self, b, defaults):
-        """The splat (grid source), the march and nothing else: the march writes the picture."""
+        """The splat (grid source), the march and, where asked, the light shafts the flame
+        lights; returns the picture."""
+        from .shafts import plan_shafts
+
+        # The flame is the shafts' light: their source is the flame's own picture (nothing in
+        # front of it), streaming from where it burns brightest.
+        return plan_shafts(b, self.shafts, self._plan_march(b), flame_light(self.lo, self.hi), (),
+                           lambda target, clear: b.stage(Stage(
+                               "shaft source: the flame", "shafts", "post/present.frag",
+                               inputs={"u_source": Ref("flame")}, target=Ref(target),
+                               what="the flame's light, nothing in front of it")))
+
+    def _plan_march(self, b):
+        """The splat (grid source) and the march: the flame over the background."""
         w, h = b.size
         inputs = {}
         b.resource(Resource("flame ramp", "image", (RAMP_SIZE, 1), "rgba8", data=ramp_image(),

@@ -21,7 +21,8 @@ from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
-from ..render.flame import MAX_STEPS, Flame as FlameRendering
+from ..render.flame import MAX_STEPS, Flame as FlameRendering, flame_light
+from ..render.shafts import ShaftParams
 from .base import Scene
 from .emitter import CAMERAS, camera_of, eye, target
 
@@ -38,8 +39,8 @@ SMOKE_BOX = ((-1.5, 0.0, -1.5), (1.5, 3.5, 1.5))
 
 
 @dataclass(frozen=True)
-class FlameParams(Params):
-    """The flame's parameters (metres, seconds)."""
+class FlameParams(ShaftParams):
+    """The flame's parameters (metres, seconds), and the light shafts it lights."""
 
     source: str = param("noise", choices=SOURCES,
                         help="the density and temperature: noise (the author's field, no "
@@ -62,6 +63,8 @@ class FlameParams(Params):
     rise: float = param(1.5, 0.0, 100.0, unit="m/s", help="how fast the noise flame's noise rises")
     cells: int = param(48, 2, 128, integer=True,
                        help="the smoke flame's grid: cells a side of its box")
+    # the flame is a bright light, its whole body the shafts' source: a quarter of the sky's
+    shaft_exposure: float = param(0.05, 0.0, 10.0, help="the shafts' brightness")
     camera: str = param("fixed", choices=CAMERAS,
                         help="fixed, or orbit: circle the target once over an animation")
     eye: tuple = eye((0.0, 1.4, 5.2))
@@ -134,7 +137,8 @@ class Flame(Scene):
         return FlameRendering(
             source="grid" if self.smoke else "noise", lo=lo, hi=hi, steps=p.march_steps,
             jitter=p.march_jitter == "on", extinction=p.extinction, emission=p.emission,
-            shape=p.shape, rise=p.rise, dt=p.dt, cells=p.cells, fov=p.fov)
+            shape=p.shape, rise=p.rise, dt=p.dt, cells=p.cells, fov=p.fov,
+            shafts=p.shafts_declared(flame_light(lo, hi)))
 
     def describe(self):
         p = self.params

@@ -16,7 +16,7 @@ pytestmark = pytest.mark.gl
 SIZE = (160, 120)
 CAMERA = Camera(eye=(0.0, 0.0, 6.0), target=(0.0, 0.0, 0.0))
 QUANTITIES = {"position": (3, -2, 2), "size": (1, 0, 4), "colour": (3, 0, 1),
-              "orientation": (1, -4, 4)}
+              "orientation": (1, -4, 4), "heading": (3, -4, 4)}
 
 
 def graph(tmp_path, names):
@@ -101,3 +101,32 @@ def test_orientation_turns_the_texture_counterclockwise_on_screen(gl, tmp_path, 
     print(f"angle {np.degrees(angle):.0f}: lit half's centroid off by {turned:.2f} degrees "
           f"(pixels place it to {tolerance:.2f})")
     assert lit.sum() > 400 and abs(turned) < tolerance
+
+
+@pytest.mark.parametrize("point, velocity", [((0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),
+                                             ((0.0, 0.0, 0.0), (0.0, -2.0, 0.0)),
+                                             ((0.8, 0.5, 0.0), (0.3, 0.4, -2.0)),
+                                             ((-1.0, -0.4, 1.0), (-0.5, 0.2, 1.5))])
+def test_heading_points_the_texture_the_way_the_particle_moves_on_screen(gl, tmp_path, point,
+                                                                        velocity):
+    """A texture opaque only in its left half, turned by a velocity (the heading role): its lit
+    half's centroid lies behind the particle's motion on the screen, the motion's direction
+    taken here from the test's own pinhole, d/de pixel(p + e v) at e = 0 (float64), to what
+    pixels can place it."""
+    texture = np.zeros((64, 64, 4), np.uint8)
+    yy, xx = (np.mgrid[0:64, 0:64] + 0.5) / 32 - 1
+    texture[(xx < 0) & (np.hypot(xx, yy) < 0.9)] = 255
+    image = draw(gl, tmp_path, {"position": [point], "heading": [velocity]}, sprite=texture,
+                 pixels=64.0)
+    centre = np.array(pixel(point))
+    e = 1e-7
+    ahead = (np.array(pixel(np.add(point, e * np.asarray(velocity)))) - centre) / e
+    moving = np.arctan2(-ahead[1], ahead[0])  # y up on the screen
+    lit, xx, yy = footprint(image, centre)
+    dx, dy = xx[lit].mean() - centre[0], -(yy[lit].mean() - centre[1])
+    turned = np.degrees(np.arctan2(dy, dx) - (moving + np.pi))
+    turned = (turned + 180) % 360 - 180
+    tolerance = np.degrees(np.arctan(0.75 / np.hypot(dx, dy)))
+    print(f"heading {np.degrees(moving):.1f} degrees on screen: the lit half behind it off by "
+          f"{turned:.2f} degrees (pixels place it to {tolerance:.2f})")
+    assert lit.sum() > 200 and abs(turned) < tolerance

@@ -37,7 +37,8 @@ UPSAMPLES = ("nearest", "bilinear", "bilateral")
 SCENE_DEPTHS = ("auto", "texture", "packed")
 ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
          "size": ("size_factor", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR"),
-         "orientation": ("orientation", (1,), "ORIENTATION")}
+         "orientation": ("orientation", (1,), "ORIENTATION"),
+         "heading": ("heading", (3,), "HEADING")}
 
 
 # --- sprite textures --------------------------------------------------------------------------
@@ -98,8 +99,23 @@ def puff_texture(size=64, seed=7):
     return (rgba * 255).round().astype(np.uint8)
 
 
+def arrow_texture(size=64):
+    """A white dart pointing right (+x, the way a heading turns it): a triangle from its tip at
+    0.92 of the width to its base at 0.18, 0.56 of the height across, its edges three texels
+    soft (a sharper edge lands on either side of a pixel as two rasterisers turn it)."""
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size
+    tip, base, half = 0.92, 0.18, 0.28
+    along = (x - base) / (tip - base)  # 0 at the base, 1 at the tip
+    edge = half * (1 - along) - np.abs(y - 0.5)  # inside where > 0, in texture widths
+    inside = np.minimum(np.minimum(edge * np.hypot(1.0, half / (tip - base)),
+                                   x - base), tip - x)
+    a = np.clip(inside * size / 3 + 0.5, 0, 1)
+    rgba = np.stack([np.ones_like(a)] * 3 + [a], -1)
+    return (rgba * 255).round().astype(np.uint8)
+
+
 SPRITES = {"fireball": fireball_texture, "disc": disc_texture, "smoke": smoke_texture,
-           "puff": puff_texture}
+           "puff": puff_texture, "arrow": arrow_texture}
 
 
 def load_sprite(spec):
@@ -253,7 +269,9 @@ class Sprites(Rendering):
         ``size`` (1 component, a factor of the sprite's size); ``colour`` (3 components, the
         particle's tint in place of ``tint``'s colour); ``orientation`` (1 component: an angle in
         radians, the sprite's texture turned counterclockwise on screen by it; a texture's
-        corners that turn out of the point's square are cut). Default: position and fade by ``life``.
+        corners that turn out of the point's square are cut); ``heading`` (3 components, a
+        velocity: the texture turned to point, on screen, the way the particle moves; its +x is
+        the front). Default: position and fade by ``life``.
     """
 
     sprite: object = "fireball"
@@ -336,6 +354,9 @@ class Sprites(Rendering):
         if unknown or "position" not in roles:
             raise ParameterError(f"sprite roles are {', '.join(ROLES)} (position required), "
                                  f"got {', '.join(roles)}")
+        if "heading" in roles and "orientation" in roles:
+            raise ParameterError("sprite roles: a heading or an orientation turns the texture, "
+                                 "not both")
         if self.shadow is not None and "fade" not in roles:
             raise ParameterError("shadow needs a fade role: the map's pass reads each "
                                  "particle's life")
@@ -446,6 +467,8 @@ class Sprites(Rendering):
                     "u_tint": tuple(float(v) for v in self.tint)}
         if self.growth != 1:
             uniforms["u_growth"] = float(self.growth)
+        if "heading" in self.roles:  # a screen direction's pixels: x times the aspect
+            uniforms["u_aspect"] = float(b.size[0] / b.size[1])
         # A buffer of their own at a lower resolution draws the sprites at its own scale.
         buffered = self.soft > 0 or self.buffer_scale < 1
         drawn_pixels = pixel_size * float(self.buffer_scale)

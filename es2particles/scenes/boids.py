@@ -25,7 +25,7 @@ from ..render.sprites import Sprites
 from .base import Scene
 
 
-POINT_SIZE_3D = 6.0  # 3D boids are sprites a few pixels across in a picture 1024 high
+POINT_SIZE_3D = 12.0  # 3D boids are darts 12 pixels across in a picture 1024 high: their heading shows
 
 
 @dataclass(frozen=True)
@@ -136,9 +136,11 @@ class Boids(Scene):
     def rendering(self):
         if self.params.dimensions == 2:
             return super().rendering()
-        return Sprites(sprite="disc", size_spread=0.0, attenuation=(0.0, 0.0, 1.0 / self._distance ** 2),
-                       blend="add", tint=(0.55, 0.75, 1.0, 1.0), opacity=0.6,
-                       background=(0.02, 0.03, 0.05), roles={"position": "position"})
+        # Darts turned the way each boid flies, as it looks from the camera.
+        return Sprites(sprite="arrow", size_spread=0.0,
+                       attenuation=(0.0, 0.0, 1.0 / self._distance ** 2), blend="add",
+                       tint=(0.55, 0.75, 1.0, 1.0), opacity=0.6, background=(0.02, 0.03, 0.05),
+                       roles={"position": "position", "heading": "velocity"})
 
     @property
     def _distance(self):

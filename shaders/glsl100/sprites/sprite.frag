@@ -12,8 +12,8 @@ varying float v_light;
 #ifdef COLOUR
 varying vec3 v_colour;  // the particle's own tint (a COLOUR role), in place of u_tint.rgb
 #endif
-#ifdef ORIENTATION
-varying float v_angle;  // the texture turned counterclockwise on screen (an ORIENTATION role)
+#if defined(ORIENTATION) || defined(HEADING)
+varying vec2 v_turn;  // (cos, sin) of the texture's turn, counterclockwise on screen
 #endif
 #ifdef SOFT
 // Soft particles (the ARM chapter's): the sprite fades over u_soft as it nears the opaque scene
@@ -27,10 +27,10 @@ uniform vec2 u_target_size;  // the buffer's pixels: gl_FragCoord over it is a s
 
 void main()
 {
-#ifdef ORIENTATION
+#if defined(ORIENTATION) || defined(HEADING)
     // gl_PointCoord's t runs down the screen: this turn of it is counterclockwise on screen.
     vec2 c = gl_PointCoord - 0.5;
-    float s = sin(v_angle), k = cos(v_angle);
+    float s = v_turn.y, k = v_turn.x;
     vec2 uv = vec2(k * c.x - s * c.y, s * c.x + k * c.y) + 0.5;
     vec4 t = texture2D(u_sprite, uv);
     if (uv != clamp(uv, 0.0, 1.0)) {

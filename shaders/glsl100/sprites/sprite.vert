@@ -10,7 +10,8 @@
 // drawn (without it every particle is alive at age 0); SIZE: read_size_factor(), a factor of the
 // size (lib/sprite.glsl, so the shadow map's footprint has it too);
 // COLOUR: read_colour(), the particle's tint; ORIENTATION: read_orientation(), the angle its
-// texture turns by (sprite.frag). They and the uniforms are declared by the renderer
+// texture turns by (sprite.frag); HEADING: read_heading(), a velocity: the texture turns to point
+// its +x the way the particle moves on the screen. They and the uniforms are declared by the renderer
 // (es2particles/gl/bindings.py).
 // SORTED: vertex i draws the particle in slot i of the order texture (es2particles/render/sort.py), so
 // the sprites are drawn back to front. SHADOWED: the light reaching the particle through the
@@ -22,8 +23,11 @@ varying float v_light;
 #ifdef COLOUR
 varying vec3 v_colour;
 #endif
-#ifdef ORIENTATION
-varying float v_angle;
+#if defined(ORIENTATION) || defined(HEADING)
+varying vec2 v_turn;  // (cos, sin) of the texture's turn, counterclockwise on screen
+#endif
+#ifdef HEADING
+uniform float u_aspect;  // the picture's width over its height: NDC x to pixels, as y
 #endif
 #include "lib/sprite.glsl"
 #ifdef SORTED
@@ -51,7 +55,17 @@ void main()
     v_colour = read_colour(texel);
 #endif
 #ifdef ORIENTATION
-    v_angle = read_orientation(texel);
+    float angle = read_orientation(texel);
+    v_turn = vec2(cos(angle), sin(angle));
+#endif
+#ifdef HEADING
+    // The velocity's direction on the screen: the particle's place and a step ahead of it
+    // (a hundredth of the eye's distance), both projected; none (0) for a still particle.
+    vec3 v = read_heading(texel);
+    float speed = length(v);
+    vec4 ahead = u_view_projection * vec4(p + v * (0.01 * d / max(speed, 1e-20)), 1.0);
+    vec2 along = (ahead.xy / ahead.w - gl_Position.xy / gl_Position.w) * vec2(u_aspect, 1.0);
+    v_turn = speed > 0.0 && dot(along, along) > 0.0 ? normalize(along) : vec2(1.0, 0.0);
 #endif
     float fade = 1.0;
     if (size < u_fade) {

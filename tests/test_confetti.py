@@ -67,7 +67,7 @@ CAMERA = Camera(eye=(0.0, 0.0, 4.0), target=(0.0, 0.0, 0.0), fov=40.0)
 SIZE = (200, 200)
 
 
-def draw_quads(gl, tmp_path, positions, normals, shape, half_size=0.3):
+def draw_quads(gl, tmp_path, positions, normals, shape, half_size=0.3, lift=0.0):
     g = PassGraph()
     for name, lo, hi, k in (("position", -2, 2, 3), ("normal", -1, 1, 2), ("life", 0, 10, 2)):
         g.quantity(name, lo, hi, components=k)
@@ -79,7 +79,7 @@ def draw_quads(gl, tmp_path, positions, normals, shape, half_size=0.3):
         sim.upload("position", np.asarray(positions, float))
         sim.upload("normal", octahedral_encode(np.asarray(normals, float)))
         sim.upload("life", np.tile([1.0, 5.0], (count, 1)))
-        quads = Quads(half_size=half_size, shapes=(shape,), lift=0.0, light=(0.0, 0.0, 4.0),
+        quads = Quads(half_size=half_size, shapes=(shape,), lift=lift, light=(0.0, 0.0, 4.0),
                       background=(0, 0, 0))
         with Renderer(gl, quads, sim, size=SIZE) as renderer:
             renderer.draw(CAMERA)
@@ -145,6 +145,50 @@ def test_quads_cover_their_area_at_every_turn(gl, tmp_path, shape):
           f", expected {expected:.1f} ({100 * (counts.mean() / expected - 1):+.2f}%)")
     assert np.all(np.abs(counts - expected) < edge)
     assert abs(counts.mean() / expected - 1) < 0.01
+
+
+def test_a_piece_in_flight_turns_at_the_tumble_rate(gl):
+    """Pieces high above everything, at rest, one step: each facing turns by --tumble dt about
+    an axis across it (540 degrees/s over 1/60 s: 9 degrees), so the angle between a piece's
+    facings before and after is that, in float state to float32's rounding."""
+    scene = Confetti(jitter=0.0, lifetime=(400.0, 400.0), gravity=(0.0, 0.0, 0.0))
+    rng = np.random.default_rng(3)
+    n = 512
+    with Simulation(gl, scene.graph(gl.caps), n, fmt="rgba32f") as sim:
+        sim.upload("position", np.column_stack([rng.uniform(-1.5, 1.5, n), rng.uniform(5, 6, n),
+                                                rng.uniform(-1.5, 1.5, n)]))
+        sim.upload("velocity", np.zeros((n, 3)))
+        sim.upload("life", np.tile([1.0, 300.0], (n, 1)))
+        before = rng.normal(size=(n, 3))
+        sim.upload("normal", octahedral_encode(before))
+        before = octahedral_decode(sim.download("normal")).astype(float)
+        sim.run(1)
+        after = octahedral_decode(sim.download("normal")).astype(float)
+    turned = np.degrees(np.arccos(np.clip(np.sum(before * after, axis=1), -1, 1)))
+    want = scene.params.tumble * scene.params.dt
+    print(f"turned {turned.min():.4f} to {turned.max():.4f} degrees a step; {want:g} asked")
+    assert np.all(np.abs(turned - want) < 0.01)
+
+
+def test_a_quad_s_back_is_lit_as_its_front(gl, tmp_path):
+    """Paper is lit on both sides: a piece facing away from the light (and the camera) is as
+    bright as one facing it."""
+    front, back = (image[image.max(axis=2) > 4] for image in (
+        draw_quads(gl, tmp_path, [[0.0, 0.0, 0.0]], [facing], "square")
+        for facing in ([0.0, 0.0, 1.0], [0.0, 0.0, -1.0])))
+    assert len(front) > 500 and abs(len(front) - len(back)) < 0.05 * len(front)
+    assert np.abs(front.mean(axis=0) - back.mean(axis=0)).max() < 1.0
+
+
+def test_a_lifted_quad_stands_off_its_surface_towards_its_facing(gl, tmp_path):
+    """--lift moves a piece off the surface it lies on along its facing, by 0.5 to 1.5 of the
+    lift (a hash of the piece): a piece facing the camera 4 m away, lifted by 0.5, is 0.25 to
+    0.75 nearer, so it covers (4 / (4 - l))^2 of its area unlifted, more than 1.13 of it."""
+    flat = draw_quads(gl, tmp_path, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], "square")
+    lifted = draw_quads(gl, tmp_path, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 1.0]], "square", lift=0.5)
+    ratio = (lifted.max(axis=2) > 4).sum() / (flat.max(axis=2) > 4).sum()
+    print(f"lifted by 0.5: {ratio:.3f} of the unlifted area (1.13 to 1.51 allowed)")
+    assert 1.12 < ratio < 1.52
 
 
 def test_the_command_line_makes_tumbling_confetti(tmp_path, capsys):

@@ -760,6 +760,12 @@ def test_fountain_page_orbits_and_zooms_with_the_mouse_as_the_python_camera_does
         zoomed = page.image(SIZE_3D)
         _, want, _ = egl_state(gl, scene, steps, camera(120, 30, np.exp(0.3)))
         compare_images(want, zoomed, "and a wheel of 300", folder=tmp_path)
+        # a drag far down: the eye climbs to the elevation limit (1.45 radians) and no further
+        page.call("orbit(0, 400)")
+        climbed = page.image(SIZE_3D)
+        tilt = (1.45 - elevation) / 0.01 - 30  # the tilt left to the limit after the first 30
+        _, want, _ = egl_state(gl, scene, steps, camera(120, 30 + tilt, np.exp(0.3)))
+        compare_images(want, climbed, "and a drag to the elevation limit", folder=tmp_path)
     finally:
         page.close()
 

@@ -40,9 +40,10 @@ def floor_behind(point):
     return lamp + t * (np.asarray(point, float) - lamp)
 
 
-def draw(gl, positions, shadows="on"):
+def draw(gl, positions, shadows="on", lamp_angle=90.0):
     """The collision3d scene's lamp-lit frame with particles (alive) at ``positions``."""
-    scene = Collision3D(shadows=shadows, lamp=LAMP, lamp_angle=90.0, field_resolution=32)
+    lamp = dict(lamp=LAMP, lamp_angle=lamp_angle) if shadows == "on" else {}
+    scene = Collision3D(shadows=shadows, field_resolution=32, **lamp)
     count = max(len(positions), 1)
     with Simulation(gl, scene.graph(gl.caps), count, fmt="rgba32f") as sim:
         x = np.array(positions, float).reshape(-1, 3) if len(positions) else np.zeros((1, 3))
@@ -126,3 +127,33 @@ def test_shadows_off_draws_what_it_drew_before(gl):
     with Simulation(gl, scene.graph(gl.caps), 16) as sim, \
             Renderer(gl, scene.rendering(), sim, size=(32, 32)) as renderer:
         assert "light map" not in renderer.plan.resources
+
+
+def test_the_lamp_s_disc_is_full_to_three_quarters_of_its_cone_then_fades(gl):
+    """The chapter's lamp lights a disc: full out to 0.75 of its cone's radius (in the light
+    map's projection, tan of the angle off its axis over tan of the half cone), fading to 0 at
+    the rim by smoothstep: at 0.95 of the radius 0.104 of the light is left. Each floor point's
+    brightness is taken against the same point with the lamp off (its colour and the scene's
+    light cancel out) and against the disc's full middle."""
+    lit, unlit = draw(gl, [], lamp_angle=40.0), draw(gl, [], shadows="off")
+    lamp, target = np.array(LAMP), np.zeros(3)
+    axis = (target - lamp) / np.linalg.norm(target - lamp)
+    half = np.radians(40.0 / 2)
+
+    def floor_point(r, direction):
+        """The floor point along ``direction`` from the target at ``r`` of the cone's radius."""
+        lo, hi = 0.0, 20.0
+        for _ in range(60):
+            mid = (lo + hi) / 2
+            v = target + mid * np.asarray(direction) - lamp
+            angle = np.arccos(np.dot(v, axis) / np.linalg.norm(v))
+            lo, hi = (mid, hi) if np.tan(angle) / np.tan(half) < r else (lo, mid)
+        return target + lo * np.asarray(direction)
+
+    def share(r):
+        p = floor_point(r, (0.0, 0.0, 1.0))  # towards the camera, clear of the sphere's shadow
+        return brightness(lit, p) / brightness(unlit, p)
+
+    full, edge = share(0.5), share(0.95)
+    print(f"lamp's light against the lamp off: {full:.3f} at half the cone, {edge:.3f} at 0.95")
+    assert edge < 0.6 * full

@@ -82,6 +82,15 @@ def test_a_ray_through_a_pixel_leaves_the_eye_at_the_pixels_angle():
     _, right = view.ray((640, 180), size)  # the right edge: atan(aspect tan(fov / 2))
     want = math.degrees(math.atan(640 / 360 * math.tan(math.radians(22.5))))
     assert math.degrees(math.acos(np.dot(right, forward))) == pytest.approx(want, abs=1e-9)
+    # and on the pixel's side: up the screen for the top row, right for the right edge (the
+    # camera's own right and up, from its forward and the world's up, written here)
+    side = np.cross(forward, (0.0, 1.0, 0.0))
+    side /= np.linalg.norm(side)
+    up = np.cross(side, forward)
+    assert np.dot(top - forward, up) > 0.3 and abs(np.dot(top, side)) < 1e-12
+    assert np.dot(right - forward, side) > 0.5 and abs(np.dot(right, up)) < 1e-12
+    _, corner = view.ray((0, 360), size)  # the bottom left: down and left
+    assert np.dot(corner, up) < 0 and np.dot(corner, side) < 0
 
 
 def test_a_ray_meets_a_sphere_at_its_near_surface():

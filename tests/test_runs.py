@@ -212,3 +212,23 @@ def test_a_bad_state_file_is_one_line_naming_what_differs(tmp_path, capsys):
         err = capsys.readouterr().err
         assert message in err and len(err.strip().splitlines()) == 1, (argv, err)
     assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+@pytest.mark.parametrize("name", BUILT_IN)
+def test_a_run_file_writes_every_parameter_and_setting_the_scene_uses(tmp_path, name):
+    """Resolved: each of the scene's options with a value (its default where not given), and
+    each frame setting it uses, so the file alone makes the same run when a default changes."""
+    import tomllib
+
+    from es2particles.frame.settings import BLOOM_PARTS, COMMON_SETTINGS
+    from es2particles.run import Run, write_run
+
+    scene = scene_class(name)()
+    path = tmp_path / "run.toml"
+    write_run(Run(name), scene, path)
+    data = tomllib.loads(path.read_text())
+    declared = scene.Params.options()
+    with_values = {n for n in declared if getattr(scene.params, n) is not None}
+    assert set(data["parameters"]) == with_values
+    used = set(COMMON_SETTINGS) | set(scene.rendering().settings)
+    assert set(data["settings"]) == used - set(BLOOM_PARTS)

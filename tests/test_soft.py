@@ -133,3 +133,34 @@ def test_a_bilateral_upsample_follows_the_object_s_edge_better(gl):
               f"{diff[~edges].mean():.2f}; sprites {half_time * 1e3:.1f} ms against "
               f"{full_time * 1e3:.1f} at full resolution")
     assert errors["bilateral"] < errors["bilinear"] < errors["nearest"]
+
+
+def over_picture(gl, soft, upsample="bilinear"):
+    """Three overlapping 'over' sprites of opacity 0.6 well above a grey floor (at heights far
+    past ``soft``: no fade), seen straight down: the picture."""
+    scene = Fountain()
+    with Simulation(gl, scene.graph(), 3, fmt="rgba32f") as sim:
+        sim.upload("position", np.array([[0.0, 2.0, 0.0], [0.25, 1.8, 0.1], [-0.1, 1.6, -0.2]]))
+        sim.upload("life", np.array([[0.0, 10.0]] * 3))
+        grey = floor(3.0, colour=(0.5, 0.5, 0.5), colour2=(0.5, 0.5, 0.5))
+        sprites = Sprites(sprite="disc", blend="over", size_spread=0.0, tint=(1, 0.5, 0.2, 1),
+                          opacity=0.6, attenuation=(1.0, 0.0, 0.0), meshes=(grey,),
+                          light=(0.0, 5.0, 0.0), background=(0, 0, 0), soft=soft,
+                          upsample=upsample)
+        with Renderer(gl, sprites, sim, size=SIZE, point_size=40.0 * 1024 / SIZE[1]) as r:
+            r.draw(DOWN)
+            return r.read().astype(float)
+
+
+def test_a_buffer_at_the_picture_s_resolution_lays_the_sprites_over_as_drawing_them_there(gl):
+    """Over is associative: the sprites drawn premultiplied into a buffer of their own and that
+    buffer laid over the picture make the picture the sprites drawn straight into it make, to
+    the buffer's and the picture's rounding (a code each)."""
+    direct = over_picture(gl, 0.0)
+    buffered = over_picture(gl, 1e-3)  # soft, so buffered; every sprite far above the floor
+    covered = direct[..., 0] - direct[..., 2] > 20  # orange sprites over the grey floor
+    off = np.abs(buffered - direct)
+    print(f"buffered against direct: max {off.max():.1f} codes, mean {off.mean():.3f}; "
+          f"{covered.mean():.2f} of the pixels covered")
+    assert covered.mean() > 0.1
+    assert off.max() <= 2

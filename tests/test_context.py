@@ -224,3 +224,23 @@ def test_recording_device_reads_the_first_components(recording):
     tex = recording.texture((3, 2), "rgba8", data=texels.tobytes())
     assert recording.read(tex, components=3) == texels[:, :, :3].tobytes()
     assert recording.read(tex) == texels.tobytes()
+
+
+def test_without_fragment_highp_a_sort_order_is_refused_in_one_line():
+    """The sort's comparators decode 16-bit keys and carry particle indices (to 2^24) in
+    fragment shaders: without highp float neither the depth sort nor a neighbour grid can run,
+    whatever the state's format; refused naming the way out."""
+    from es2particles.errors import CapabilityError
+    from es2particles.frame.plan import plan_frame
+    from es2particles.frame.settings import FrameSettings
+    from es2particles.gl.context import Capabilities
+    from es2particles.scenes.boids import Boids
+
+    tegra = {"vertex": {n: (127, 127, 23) for n in LEAST},
+             "fragment": {**{n: (15, 15, 10) for n in LEAST}, "high float": (0, 0, 0)}}
+    caps = Capabilities.assumed(probe_precision=lambda: tegra)
+    with pytest.raises(CapabilityError, match=r"a sort order .* need highp float: this "
+                                              r"context's best is mediump, 10 bits"):
+        plan_frame(Boids(), FrameSettings(particles=1024, size=(32, 32), format="rgba16f"), caps)
+    plan_frame(Boids(), FrameSettings(particles=1024, size=(32, 32), format="rgba16f"),
+               Capabilities.assumed())  # where fragment shaders have highp it plans

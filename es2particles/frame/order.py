@@ -216,7 +216,17 @@ def order_format(caps, position, state_format, fmt=None):
     throughout) and ``rgba32f`` (no quantisation of the depth) where the positions already are
     float and the context renders rgba32f. (ES 1.00 declares gl_FragColor mediump: bytes survive
     that on any driver, float keys and indices only where the driver writes highp values through
-    it, as desktop drivers and Mesa do for the way the sort shaders write it.)"""
+    it, as desktop drivers and Mesa do for the way the sort shaders write it.) A context whose
+    fragment shaders have no highp float (the article's Tegra row) is refused in one line:
+    the comparators decode 16-bit keys and carry particle indices past mediump's 10 bits, in
+    either format."""
+    if not caps.fragment_highp:
+        bits = caps.precision["fragment"]["medium float"][2]
+        raise CapabilityError(f"a sort order (the depth sort, a neighbour grid) compares 16-bit "
+                              f"keys and carries particle indices in fragment shaders, which "
+                              f"need highp float: this context's best is mediump, {bits} bits "
+                              "(a depth sort can be switched off where the scene offers it, "
+                              "--sort off; a neighbour grid cannot do without)")
     if fmt is not None:
         if fmt not in FORMATS:
             raise ParameterError(f"fmt must be one of {list(FORMATS)}, got {fmt!r}")

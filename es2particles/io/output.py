@@ -447,11 +447,17 @@ class OutputGroup:
         return self
 
     def __exit__(self, kind, value, traceback):
-        self._active.reset(self._token)
-        if kind is None:
-            self.commit()
-        else:
-            self.abort()
+        # An interrupt landing before the commit's renames begin (here, between this method's
+        # first lines) left every temporary behind with exit 130 (a fresh clone's CI, SIGTERM
+        # as the run file's temporary appeared): whatever ends this method early, the
+        # temporaries not yet renamed are removed.
+        try:
+            self._active.reset(self._token)
+            if kind is None:
+                self.commit()
+        finally:
+            if kind is not None or self.staged:
+                self.abort()
 
     def commit(self):
         """Rename every staged temporary onto its path (see the class's docstring)."""

@@ -91,8 +91,10 @@ say "== es2particles info (gles): no GLES backend yet (issue 43)"
 say "== the GL tier's core tests"
 TESTS="tests/test_packing.py tests/test_simulation.py tests/test_grids.py tests/test_wind.py"
 TESTS="$TESTS tests/test_dejong.py tests/test_executor.py"
+# -p checkout_clean beside the emptied addopts: without it the tests wrote .hypothesis/ into the
+# checkout (Hypothesis's home, which the plugin moves to a folder of the session's).
 timeout $([ -n "$DRY" ] && echo 240 || echo 120) $PY -m pytest -q -p no:cacheprovider \
-  -o addopts="" -m "gl and not slow" $TESTS 2>&1 | tail -25 | tee -a "$LOG"
+  -p checkout_clean -o addopts="" -m "gl and not slow" $TESTS 2>&1 | tail -25 | tee -a "$LOG"
 
 say "== figures"
 left=$(( $([ -n "$DRY" ] && echo 560 || echo 380) - ($(date +%s) - start) ))
@@ -113,7 +115,8 @@ if [ -z "$DRY" ]; then
   $PY -c "import xdist" 2>/dev/null && extra="-n $(( $(nproc) > 12 ? 12 : $(nproc) ))"
   $PY -c "import pytest_timeout" 2>/dev/null && extra="$extra --timeout 150"
   left=$(( 420 - ($(date +%s) - start) ))
-  timeout "$left" $PY -m pytest -q -p no:cacheprovider -o addopts="-ra" -m "not browser" \
+  timeout "$left" $PY -m pytest -q -p no:cacheprovider -p checkout_clean -o addopts="-ra" \
+    -m "not browser" \
     $extra tests > "$OUT/gpu-suite.log" 2>&1
   grep -E "^(FAILED|ERROR) |^[0-9]+ (passed|failed)|^=+ .*(passed|failed)" "$OUT/gpu-suite.log" \
     | tail -60 | tee -a "$LOG"

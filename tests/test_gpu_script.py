@@ -16,6 +16,7 @@ ROOT = Path(__file__).resolve().parent.parent
 @pytest.mark.slow
 def test_the_dry_run_writes_its_figures_within_its_limit(tmp_path):
     start = time.monotonic()
+    hypothesis_before = (ROOT / ".hypothesis").exists()
     done = subprocess.run(["bash", str(ROOT / "benchmarks" / "gpu.sh"), "--dry-run", "--out",
                            str(tmp_path)], capture_output=True, text=True, timeout=600)
     took = time.monotonic() - start
@@ -32,5 +33,7 @@ def test_the_dry_run_writes_its_figures_within_its_limit(tmp_path):
     assert all(f["value"] > 0 for f in measured)
     assert all(f["goal"] is None for f in data["figures"])  # no goal is judged on llvmpipe
     assert "passed" in (tmp_path / "gpu-run.log").read_text()  # the core tests ran
+    # their Hypothesis tests kept their home out of the checkout (tests/checkout_clean.py)
+    assert hypothesis_before or not (ROOT / ".hypothesis").exists()
     print(f"dry run: {took:.0f} s, {len(measured)} figures")
     assert took < 600

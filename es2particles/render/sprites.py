@@ -21,6 +21,7 @@ from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 from ..params import param
 from .meshes import plan_mesh_passes, plan_meshes
+from .points import vertex_fetch
 from .shafts import ShaftParams
 
 BLENDS = ("add", "over")
@@ -422,14 +423,9 @@ class Sprites(Rendering):
         # them (--vertex-fetch off, or auto on a context with none) the state is read back into
         # vertex attributes each frame, as the points do; the features that read textures in
         # the sprites' vertex shader (or draw the sprites again) need the fetch.
-        fetch = setting("vertex_fetch", b.setting("vertex_fetch"))
-        units = caps.max_vertex_texture_units
-        if fetch == "on" and units < 1:
-            raise CapabilityError("--vertex-fetch on: this context has no vertex texture units "
-                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS is 0); use off (or auto)")
-        why = ("--vertex-fetch off" if fetch == "off"
+        why = ("--vertex-fetch off" if b.setting("vertex_fetch") == "off"
                else "this context has no vertex texture units")
-        fetch = fetch == "on" or (fetch == "auto" and units >= 1)
+        fetch = vertex_fetch(b)
         if not fetch:
             needs = [name for name, on in (("the depth sort", self.sort is not None),
                                            ("the shadow map", self.shadow is not None),

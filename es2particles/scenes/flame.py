@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import ParameterError
 from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
-from ..params import Params, param
+from ..params import param
 from ..render.flame import MAX_STEPS, Flame as FlameRendering, flame_light
 from ..render.shafts import ShaftParams
 from .base import Scene

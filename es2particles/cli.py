@@ -175,6 +175,7 @@ class _Phases:
         import threading
         import time
 
+        from .gl.device import signals_held
         from .io.output import signals_deferred
 
         def say():
@@ -188,7 +189,8 @@ class _Phases:
                 return
             self.timer = threading.Timer(LONG_PHASE_SECONDS, say)
             self.timer.daemon = True
-            self.timer.start()
+            with signals_held():  # its thread never takes the process's signals: see there
+                self.timer.start()
 
 
 @contextmanager

@@ -382,6 +382,50 @@ def test_an_image_that_is_no_png_is_refused_unopened_whatever_its_name(tmp_path,
     assert opened == [] and not marker.exists() and not out.exists()
 
 
+def _blocked_signals(thread):
+    """The signals ``thread`` blocks, as the kernel says (its SigBlk mask)."""
+    with open(f"/proc/self/task/{thread.native_id}/status") as status:
+        mask = int(next(line for line in status if line.startswith("SigBlk:")).split()[1], 16)
+    return {number for number in range(1, 65) if mask >> (number - 1) & 1}
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/task"), reason="no /proc task masks here")
+def test_the_commands_helper_threads_never_take_the_process_signals(monkeypatch):
+    """The kernel hands a process's SIGTERM to any thread that does not block it, and Python then
+    runs the handler in the main thread at once, even inside moderngl's program() (which the
+    main thread's own mask was holding it out of): a compile loop under SIGTERMs with the phase
+    timer's thread alive crashed in 4 runs of 6, and CI's `run wind` under SIGTERM once. So
+    the phase timer's thread and tqdm's monitor thread block SIGINT, SIGTERM and SIGALRM (the
+    alarm re-delivers an interrupt that landed in an import)."""
+    import signal
+    import sys
+    import threading
+    import time
+
+    from es2particles.cli import _Phases
+
+    wanted = {signal.SIGINT, signal.SIGTERM, signal.SIGALRM}
+    before = set(threading.enumerate())
+    phase = _Phases(time.perf_counter())
+    phase("compiling")
+    try:
+        assert wanted <= _blocked_signals(phase.timer), _blocked_signals(phase.timer)
+    finally:
+        phase(None)
+    tqdm = pytest.importorskip("tqdm")
+    from es2particles.io import progress
+
+    monkeypatch.setattr(tqdm.tqdm, "monitor", None)  # a monitor an earlier bar left is not ours
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    bar = progress.progress(range(2), 2, "warm-up")
+    next(bar)
+    made = [t for t in set(threading.enumerate()) - before if t.is_alive()]
+    assert any(isinstance(t, tqdm._monitor.TMonitor) for t in made), made
+    for thread in made:
+        assert wanted <= _blocked_signals(thread), (thread, _blocked_signals(thread))
+    list(bar)
+
+
 @pytest.mark.gl
 @pytest.mark.slow
 def test_an_interrupt_at_any_moment_of_the_first_second_is_one_line(tmp_path):

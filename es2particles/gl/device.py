@@ -181,7 +181,8 @@ class GLDevice:
 
     def program(self, vertex, fragment):
         """Compile and link; a failure raises :class:`ProgramError` with the driver's words.
-        SIGINT and SIGTERM are held back while the driver compiles (see :func:`signals_held`)."""
+        SIGINT, SIGTERM and SIGALRM are held back while the driver compiles (see
+        :func:`signals_held`)."""
         import moderngl
 
         try:
@@ -637,12 +638,19 @@ def _reachable_identifiers(code):
 
 @contextmanager
 def signals_held():
-    """SIGINT and SIGTERM blocked in this thread while the block runs (a driver's compile), then
-    delivered: Python then raises its KeyboardInterrupt between bytecodes, as for any other
-    moment. A signal that landed inside llvmpipe's compile ended a run in a segmentation fault (3
-    in 150 runs of `run wind` killed 0.1-0.6 s in, every one in moderngl's program(): the
-    handler interrupted a system call the compiler does not retry); with the signals held, none
-    in 300. Off the main thread, or without pthread_sigmask, the block runs as it is."""
+    """SIGINT, SIGTERM and SIGALRM blocked in this thread while the block runs (a driver's
+    compile), then delivered: Python then raises its KeyboardInterrupt between bytecodes, as for
+    any other moment. A signal that landed inside llvmpipe's compile ended a run in a
+    segmentation fault (3 in 150 runs of `run wind` killed 0.1-0.6 s in, every one in moderngl's
+    program()); with the signals held, none in 300. SIGALRM too: the command re-delivers an
+    interrupt that landed in an import by a 5 ms alarm.
+
+    A thread started inside the block inherits the mask, and so never takes the process's
+    signals: start every helper thread that lives through GL calls here. The kernel hands a
+    process's signal to any thread that does not block it, and Python then runs its handler in
+    the main thread at once, even inside program() (a phase timer's thread took it: 3 compile
+    loops in 4 crashed, and `run wind` 1 in 400 under SIGTERM). Off the main thread, or without
+    pthread_sigmask, the block runs as it is."""
     import signal
     import threading
 
@@ -650,7 +658,9 @@ def signals_held():
             threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    held = {signal.SIGINT, signal.SIGTERM} | ({signal.SIGALRM} if hasattr(signal, "SIGALRM")
+                                               else set())
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
     try:
         yield
     finally:

@@ -14,7 +14,11 @@ def progress(iterable, total, label, unit="frame"):
     except ImportError:
         tqdm = None
     if tqdm is not None and terminal:
-        yield from tqdm(iterable, total=total, desc=label, unit=unit, file=sys.stderr)
+        from ..gl.device import signals_held
+
+        with signals_held():  # tqdm's monitor thread never takes the process's signals
+            bar = tqdm(iterable, total=total, desc=label, unit=unit, file=sys.stderr)
+        yield from bar
         return
     yield from _plain(iterable, total, label, unit, terminal)
 

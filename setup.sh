@@ -1,6 +1,7 @@
 #!/bin/sh
 # Set-up for the README's two commands on a bare Debian or Ubuntu machine: the system packages
-# es2particles needs (Python's venv, Mesa's EGL driver: llvmpipe renders on the CPU), then a
+# es2particles needs (Python's venv, Mesa's EGL driver: llvmpipe renders on the CPU; libGLESv2 for
+# --backend gles), then a
 # virtual environment .venv with es2particles installed from this folder.
 #
 #   sh setup.sh          the program
@@ -15,7 +16,7 @@
 set -eu
 cd "$(dirname "$0")"
 
-packages="python3-venv python3-pip libegl1 libgl1-mesa-dri libegl-mesa0"
+packages="python3-venv python3-pip libegl1 libgl1-mesa-dri libegl-mesa0 libgles2"
 extra=""
 if [ "${1:-}" = "test" ]; then
   packages="$packages glslang-tools astcenc chromium fonts-liberation xvfb xfonts-base xauth"

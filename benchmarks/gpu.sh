@@ -86,11 +86,12 @@ command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,driver_version,m
 
 say "== es2particles info (gl)"
 timeout 60 $PY -m es2particles info 2>&1 | tee -a "$LOG"
-say "== es2particles info (gles): no GLES backend yet (issue 43)"
+say "== es2particles info (gles)"
+timeout 60 $PY -m es2particles info --backend gles 2>&1 | tee -a "$LOG"
 
 say "== the GL tier's core tests"
 TESTS="tests/test_packing.py tests/test_simulation.py tests/test_grids.py tests/test_wind.py"
-TESTS="$TESTS tests/test_dejong.py tests/test_executor.py"
+TESTS="$TESTS tests/test_dejong.py tests/test_executor.py tests/test_gles.py"
 # -p checkout_clean beside the emptied addopts: without it the tests wrote .hypothesis/ into the
 # checkout (Hypothesis's home, which the plugin moves to a folder of the session's).
 timeout $([ -n "$DRY" ] && echo 240 || echo 120) $PY -m pytest -q -p no:cacheprovider \

@@ -33,6 +33,7 @@ def build_parser(argv=None):
     info = commands.add_parser("info", help="print the GL context's capabilities")
     info.add_argument("--json", action="store_true",
                       help="print them as one JSON object (for scripts)")
+    _add_backend(info)
     info.set_defaults(handler=_info)
     _add_scene_commands(commands, argv or ())
     if argv and len(argv) >= 2 and argv[0] in SCENE_COMMANDS \
@@ -41,6 +42,7 @@ def build_parser(argv=None):
     report = commands.add_parser("report", help="error against run time, and the stability suite")
     report.add_argument("--quick", action="store_true",
                         help="a small sweep (about 35 s on a 2-core CPU without a GPU)")
+    _add_backend(report)
     report.add_argument("--out", default="out/report",
                         help="folder for REPORT.md and charts (default out/report)")
     report.set_defaults(handler=_report)
@@ -146,7 +148,7 @@ def _import_held():
     if len(sys.argv) < 2 or sys.argv[1] not in ("run", "plan", "export", "view", "info",
                                                  "report"):
         return
-    from .gl.device import signals_held
+    from .io.signals import signals_held
 
     with signals_held():
         import numpy  # noqa: F401
@@ -175,8 +177,7 @@ class _Phases:
         import threading
         import time
 
-        from .gl.device import signals_held
-        from .io.output import signals_deferred
+        from .io.signals import signals_deferred, signals_held
 
         def say():
             print(f"es2particles: {what} ({time.perf_counter() - self.start:.1f} s into the run)",
@@ -333,7 +334,7 @@ def _join_negative_values(argv):
 def _info(args):
     from .gl.egl import open_context
 
-    with open_context() as ctx:
+    with open_context(backend=args.backend) as ctx:
         if args.json:
             import json
 
@@ -360,7 +361,7 @@ def _report(args):
     if (out / "REPORT.md").is_dir():
         raise ParameterError(f"--out: {str(out / 'REPORT.md')!r} is a folder; the report would "
                              "go there")
-    with open_context() as ctx:
+    with open_context(backend=args.backend) as ctx:
         path = run(ctx, out, quick=args.quick)
     print(f"wrote {path}")
 
@@ -456,6 +457,15 @@ def _add_settings(parser, scene):
                             help=d.help_text(default_text=default))
 
 
+def _add_backend(parser):
+    from .gl.egl import BACKENDS
+
+    parser.add_argument("--backend", default=None, choices=BACKENDS,
+                        help="the GL to run on: gl (desktop OpenGL), gles (OpenGL ES through "
+                             "EGL), or auto (desktop GL where it opens, else ES; default, or "
+                             "the ES2PARTICLES_BACKEND environment variable)")
+
+
 def _add_run_options(parser, command):
     add = parser.add_argument
     out = {"export": "the page: an .html file",
@@ -486,8 +496,11 @@ def _add_run_options(parser, command):
                  "(--animate-to) as run does, then holds the last (default 1)")
         add("--steps-per-frame", default=None, metavar="S",
             help="steps between the page's frames (default 1)")
+    if command == "plan":
+        _add_backend(parser)
     if command != "run":
         return
+    _add_backend(parser)
     add("--save-config", default=None, metavar="RUN.toml",
         help="also write the run, resolved (every parameter and setting this scene uses), to "
              "this file: --config gives the same run")
@@ -524,6 +537,7 @@ PAGE_REFUSES = {
     "workers": "a page runs in one browser, not on a cluster",
     "scheduler": "a page runs in one browser, not on a cluster",
     "worker_timeout": "a page runs in one browser, not on a cluster",
+    "backend": "a page runs on the browser's WebGL, not on this machine's GL",
 }
 
 
@@ -589,7 +603,8 @@ def run_of(args):
             frames[name] = _number(value, "--" + name.replace("_", "-"))
     run = Run(args.scene, options, replace(base.settings, **settings),
               **{"frames": base.frames, "steps_per_frame": base.steps_per_frame,
-                 "fps": base.fps, **frames})
+                 "fps": base.fps, **frames},
+              backend=getattr(args, "backend", None) or base.backend)
     if run.frames == 1:
         still = [f"--{n.replace('_', '-')}" for n in ("steps_per_frame", "fps") if n in frames]
         if still:
@@ -627,7 +642,7 @@ def _plan(args):
 
     run = run_of(args)
     scene = run.check()
-    with open_context() as ctx:
+    with open_context(backend=run.backend) as ctx:
         scene, pipeline = run.pipeline(ctx, scene)
         with pipeline:
             print(pipeline.describe())
@@ -753,7 +768,7 @@ def _run(args):
               + (f", {args.particles} particles in {len(sizes)} shares" if sizes else "")
               + f") in {time.perf_counter() - start:.2f} s {where}")
         return
-    with open_context() as ctx, outputs:
+    with open_context(backend=run.backend) as ctx, outputs:
         if sizes is not None:
             save_image(shares.still(ctx, run, sizes), out)
             if config_path is not None:

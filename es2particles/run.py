@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 
 from .errors import ParameterError, check_range
 from .frame.settings import FrameSettings
+from .gl.egl import BACKENDS
 from .io.nesting import check_nesting
 
 MAX_FRAMES = 100000
@@ -24,7 +25,8 @@ MAX_STEPS_PER_FRAME = 10 ** 6
 class Run:
     """A run: ``scene`` (its registered name) made from ``options`` (its own options, by name,
     as the scene's ``from_args`` reads them), with ``settings`` for its frame, drawing ``frames``
-    frames ``steps_per_frame`` steps apart at ``fps`` frames a second."""
+    frames ``steps_per_frame`` steps apart at ``fps`` frames a second, on the GL ``backend``
+    chosen (gl, gles or auto; None: ES2PARTICLES_BACKEND's, else auto)."""
 
     scene: str
     options: dict = field(default_factory=dict)
@@ -32,8 +34,12 @@ class Run:
     frames: int = 1
     steps_per_frame: int = 1
     fps: float = 30.0
+    backend: str = None
 
     def __post_init__(self):
+        if self.backend is not None and self.backend not in BACKENDS:
+            raise ParameterError(f"backend must be one of {', '.join(BACKENDS)}, got "
+                                 f"{self.backend!r}")
         object.__setattr__(self, "frames", int(check_range("frames", self.frames, 1, MAX_FRAMES,
                                                            integer=True)))
         object.__setattr__(self, "steps_per_frame", int(check_range(
@@ -79,10 +85,10 @@ class Run:
 
 # --- runs as files --------------------------------------------------------------------------
 
-RUN_KEYS = ("scene", "frames", "steps_per_frame", "fps", "settings", "parameters")
+RUN_KEYS = ("scene", "frames", "steps_per_frame", "fps", "backend", "settings", "parameters")
 # The command line's own options of a run (cli.py), which no scene parameter may be named.
 RUN_OPTIONS = ("out", "config", "save_config", "frames", "steps_per_frame", "fps", "save_state",
-               "load_state", "workers", "scheduler", "worker_timeout")
+               "load_state", "workers", "scheduler", "worker_timeout", "backend")
 HEADER = "# An es2particles run: es2particles run --config {name} --out picture.png\n"
 
 
@@ -101,10 +107,14 @@ def read_run(path):
     for table in ("settings", "parameters"):
         if not isinstance(data.get(table, {}), dict):
             raise ParameterError(f"{where}: [{table}] must be a table of values")
+    backend = data.get("backend")
+    if backend is not None and backend not in BACKENDS:
+        raise ParameterError(f"{where}: 'backend' must be one of {', '.join(BACKENDS)}, got "
+                             f"{backend!r}")
     run = Run(scene, dict(data.get("parameters", {})),
               settings_from_mapping(data.get("settings", {}), where, Run(scene).scene_class()),
               **{k: _number(data, k, where) for k in ("frames", "steps_per_frame", "fps")
-                 if k in data})
+                 if k in data}, backend=backend)
     declared = run.scene_class().Params.options()
     unknown = [k for k in run.options if k not in declared]
     if unknown:
@@ -124,7 +134,8 @@ def write_run(run, scene, path):
     from pathlib import Path
 
     data = {"scene": run.scene, "frames": run.frames, "steps_per_frame": run.steps_per_frame,
-            "fps": run.fps, "settings": resolved_settings(run.settings, scene),
+            "fps": run.fps, **({"backend": run.backend} if run.backend else {}),
+            "settings": resolved_settings(run.settings, scene),
             "parameters": {name: value for name, value in scene.params.values().items()
                            if value is not None and name in scene.Params.options()}}
     text = HEADER.format(name=Path(path).name) + toml_dumps(data)

@@ -101,9 +101,36 @@ def recording():
     context.release()
 
 
+# The GL tier's core, which runs on both back-ends (docs/backends.md): packing, each scene's
+# step against its float64 reference, every renderer. Its tests that take ``ctx`` or ``gl`` run
+# once on desktop GL and once on OpenGL ES (ids [gl] and [gles]), unless ES2PARTICLES_BACKEND
+# names one (then every test runs on that one).
+BOTH_BACKENDS = {"test_packing", "test_bits32", "test_numerics", "test_wide", "test_simulation",
+                 "test_clamps", "test_dejong", "test_clifford", "test_collision",
+                 "test_fountain", "test_collision3d", "test_confetti", "test_smoke", "test_wind",
+                 "test_grids", "test_grids3d", "test_neighbours", "test_boids", "test_sph",
+                 "test_liquid", "test_flame", "test_render", "test_meshes", "test_sort",
+                 "test_sprite_roles", "test_metaballs", "test_shafts", "test_bloom",
+                 "test_soft", "test_lamp", "test_trails", "test_vertex_fetch"}
+
+
+def pytest_generate_tests(metafunc):
+    module = metafunc.module.__name__.rsplit(".", 1)[-1]
+    if (module in BOTH_BACKENDS and {"ctx", "gl"} & set(metafunc.fixturenames)
+            and not os.environ.get("ES2PARTICLES_BACKEND")):
+        metafunc.parametrize("backend", ["gl", "gles"], indirect=True, scope="session")
+
+
 @pytest.fixture(scope="session")
-def ctx():
-    context = open_context()
+def backend(request):
+    """The back-end of the session's context: gl or gles for the core's tests, else None
+    (ES2PARTICLES_BACKEND's, or auto)."""
+    return getattr(request, "param", None)
+
+
+@pytest.fixture(scope="session")
+def ctx(backend):
+    context = open_context(backend=backend)
     yield context
     context.release()
 
@@ -115,9 +142,9 @@ def gl(ctx):
     # that Context does not track: force the switch.
     type(ctx)._current = None
     ctx.make_current()
-    assert ctx.mgl.error == "GL_NO_ERROR"
+    assert ctx.error() == "GL_NO_ERROR"
     yield ctx
-    assert ctx.mgl.error == "GL_NO_ERROR"
+    assert ctx.error() == "GL_NO_ERROR"
 
 
 def shader(name):
@@ -127,23 +154,21 @@ def shader(name):
 
 def run_fullscreen(ctx, frag, source, out_fmt="rgba8", uniforms=None):
     """Draw test shader ``frag`` over a target the size of texture ``source`` (bound to
-    u_source) and return the target's texels as an array (h*w, 4)."""
-    target = ctx.texture(source.size, out_fmt)
-    fbo = ctx.framebuffer(target)
-    prog = ctx.program("lib/fullscreen.vert", shader(frag))
-    vao = ctx.fullscreen(prog)
+    u_source, where the shader samples it) and return the target's texels as an array (h*w, 4):
+    through a draw command, so on either back-end."""
+    from es2particles.gl.command import DrawCommand
+
+    group = ctx.group()
     try:
-        source.use(0)
-        if "u_source" in prog:
-            prog["u_source"].value = 0
-        for name, value in (uniforms or {}).items():
-            prog[name].value = value
-        fbo.use()
-        vao.render()
+        target = group.texture(source.size, out_fmt)
+        fbo = group.framebuffer(target)
+        command = DrawCommand(group, "test", shader(frag))
+        command.draw(fbo, {"u_source": source} if "u_source" in command.samplers else {},
+                     uniforms)
         dtype = {"rgba8": np.uint8, "rgba16f": np.float16, "rgba32f": np.float32}[out_fmt]
-        return np.frombuffer(target.read(), dtype=dtype).reshape(-1, 4).copy()
+        return np.frombuffer(ctx.read(target), dtype=dtype).reshape(-1, 4).copy()
     finally:
-        ctx.free(vao, fbo, target)
+        group.release()
 
 
 def missing(what):

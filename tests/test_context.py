@@ -15,7 +15,7 @@ def test_capabilities_are_reported(gl):
     assert caps.renderable["rgba8"] and caps.blendable["rgba8"]
     assert caps.store_rule in ("round-to-nearest", "truncate", "floor256")
     text = str(caps)
-    assert caps.profile in ("compatibility", "core")
+    assert caps.profile in ("compatibility", "core", "es")
     for label in ("profile", "renderer", "max texture size", "vertex texture image units",
                   "rgba16f render target / additive blend", "8-bit store of a float channel"):
         assert label in text
@@ -100,6 +100,7 @@ def test_no_context_says_what_to_install(monkeypatch):
         raise Exception("libEGL.so: cannot open shared object file")
 
     monkeypatch.setattr(moderngl, "create_context", no_gl)
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "gl")  # auto would go on to OpenGL ES
     with pytest.raises(ContextError) as info:
         open_context()
     message = str(info.value)
@@ -107,18 +108,52 @@ def test_no_context_says_what_to_install(monkeypatch):
     assert "egl: libEGL.so: cannot open shared object file" in message
 
 
-def test_forced_backend_is_tried_alone(monkeypatch):
+def test_a_chosen_backend_is_tried_alone(monkeypatch):
+    """gl tries moderngl's EGL back-end, then its default one, and never OpenGL ES; gles never
+    asks moderngl; a name that is neither is refused naming where it came from."""
+    import es2particles.gl.gles as gles
+
     tried = []
 
     def record(*args, **kwargs):
-        tried.append(kwargs.get("backend"))
+        tried.append(kwargs.get("backend", "default"))
         raise Exception("nope")
 
+    class NoES:
+        def __init__(self, device=None):
+            tried.append("gles")
+            raise ContextError("no ES here")
+
     monkeypatch.setattr(moderngl, "create_context", record)
-    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
-    with pytest.raises(ContextError):
+    monkeypatch.setattr(gles, "GLESDevice", NoES)
+    with pytest.raises(ContextError, match="no headless OpenGL context"):
+        context_module.open_context(backend="gl")
+    assert set(tried) == {"egl", "default"}  # each once per profile
+    tried.clear()
+    with pytest.raises(ContextError, match="OpenGL ES: no ES here"):
+        context_module.open_context(backend="gles")
+    assert tried == ["gles"]
+    tried.clear()
+    with pytest.raises(ContextError, match="no headless OpenGL context.*OpenGL ES: no ES here"):
+        context_module.open_context(backend="auto")
+    assert tried[-1] == "gles" and set(tried) == {"egl", "default", "gles"}
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "vulkan")
+    with pytest.raises(ContextError, match="ES2PARTICLES_BACKEND must be one of gl, gles, auto, "
+                                           "got 'vulkan'"):
         context_module.open_context()
-    assert set(tried) == {"egl"}  # once for each profile, no other back-end
+
+
+@pytest.mark.gl
+def test_auto_opens_opengl_es_where_moderngl_cannot_make_a_context(monkeypatch):
+    """A driver with ES and no desktop profile moderngl can use (a Raspberry Pi's, a Mali board
+    under Panfrost): auto gets an OpenGL ES context, and info says so."""
+    def no_desktop(*args, **kwargs):
+        raise Exception("no desktop OpenGL here")
+
+    monkeypatch.setattr(moderngl, "create_context", no_desktop)
+    with context_module.open_context(backend="auto") as ctx:
+        assert ctx.backend == "gles" and ctx.caps.version.startswith("OpenGL ES")
+        assert "gles" in str(ctx.caps).split("\n")[0]
 
 
 @pytest.mark.gl
@@ -134,7 +169,7 @@ def test_core_profile_is_the_fallback(monkeypatch):
         return real(require=require, **kwargs)
 
     monkeypatch.setattr(moderngl, "create_context", refuse_compatibility)
-    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "gl")
     ctx = context_module.open_context()
     try:
         assert ctx.profile == "core" and asked == [300, 330]
@@ -187,7 +222,7 @@ def test_egl_libraries_named_and_found_again_where_missing(monkeypatch):
         return real(**kwargs)
 
     monkeypatch.setattr(moderngl, "create_context", missing_soname)
-    monkeypatch.setenv("ES2PARTICLES_BACKEND", "egl")
+    monkeypatch.setenv("ES2PARTICLES_BACKEND", "gl")
     ctx = context_module.open_context()
     try:
         assert asked == ["libEGL.so.1", None]

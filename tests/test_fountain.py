@@ -308,7 +308,7 @@ def test_sprites_are_the_same_in_the_core_and_the_compatibility_profile():
 
     images = {}
     for profile in ("compatibility", "core"):
-        env = dict(os.environ, ES2PARTICLES_PROFILE=profile)
+        env = dict(os.environ, ES2PARTICLES_PROFILE=profile, ES2PARTICLES_BACKEND="gl")
         result = subprocess.run([sys.executable, "-c", SPRITE_PROBE], capture_output=True,
                                 text=True, env=env)
         assert result.returncode == 0, result.stderr

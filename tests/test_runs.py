@@ -15,7 +15,7 @@ SMALL = ["--particles", "2048", "--size", "96x96"]
 # Options every scene's run takes (the output, the run as a file, the frames, the cluster).
 RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-frame",
                "--fps", "--save-state", "--load-state", "--workers", "--scheduler",
-               "--worker-timeout"}
+               "--worker-timeout", "--backend"}
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
 # Bloom is over every picture: switched off where the density has it on by default, on where
 # the rendering leaves it off.

@@ -53,9 +53,11 @@ def available():
 
 # -- on the workers ----------------------------------------------------------------------------
 
-def worker_context():
-    """This worker thread's GL context, made at its first task and kept."""
-    ctx = getattr(_local, "ctx", None)
+def worker_context(backend=None):
+    """This worker thread's GL context on ``backend`` (see open_context), made at its first
+    task and kept."""
+    contexts = _local.__dict__.setdefault("contexts", {})
+    ctx = contexts.get(backend)
     if ctx is None:
         from ..gl.egl import open_context
 
@@ -66,7 +68,7 @@ def worker_context():
 
             name = get_worker().name  # 0, 1, ... in a LocalCluster; a string may be given
             device = (name if isinstance(name, int) else zlib.crc32(str(name).encode())) % devices
-        ctx = _local.ctx = open_context(device=device)
+        ctx = contexts[backend] = open_context(device=device, backend=backend)
     ctx.make_current()
     return ctx
 
@@ -75,7 +77,7 @@ def shares_task(run, sizes, shares):
     """The float64 sum of the counts of ``shares`` (see shares.py)."""
     from .shares import sum_counts
 
-    return sum_counts(worker_context(), run, sizes, shares)
+    return sum_counts(worker_context(run.backend), run, sizes, shares)
 
 
 def tone_map_task(run, total, particles):
@@ -83,7 +85,7 @@ def tone_map_task(run, total, particles):
     from ..io.output import encode_png
     from .shares import tone_map
 
-    return encode_png(tone_map(worker_context(), run, total, particles))
+    return encode_png(tone_map(worker_context(run.backend), run, total, particles))
 
 
 def frames_task(run, wanted):
@@ -92,7 +94,7 @@ def frames_task(run, wanted):
     does; a reseeded scene draws the wanted frames alone)."""
     from ..io.output import encode_png
 
-    scene, pipeline = run.pipeline(worker_context())
+    scene, pipeline = run.pipeline(worker_context(run.backend))
     with pipeline:
         return {frame: encode_png(pipeline.image())
                 for frame in pipeline.frames(run.frames, run.steps_per_frame, wanted)}

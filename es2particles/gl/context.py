@@ -256,7 +256,8 @@ class Context:
     """A headless GL context and the one owner of the GL objects made through it.
 
     Every object is made, and every draw, read and write is done, through its ``device``: a
-    :class:`~es2particles.gl.device.GLDevice` (moderngl) from :func:`open_context`, or a
+    :class:`~es2particles.gl.device.GLDevice` (moderngl) or a
+    :class:`~es2particles.gl.gles.GLESDevice` (OpenGL ES) from :func:`open_context`, or a
     :class:`~es2particles.gl.device.RecordingDevice`, which draws nothing and records the calls
     (``Context(RecordingDevice())``: the executor's call stream with no GL library loaded).
     """
@@ -266,8 +267,7 @@ class Context:
         self.backend, self.profile = device.backend, device.profile
         # A GL context is current in one thread; the one that made it is the one it serves
         # (a recording device's calls go nowhere, so any thread may make them).
-        self._thread = threading.get_ident() if getattr(device, "mgl", None) is not None \
-            else None
+        self._thread = threading.get_ident() if device.draws else None
         self._program_users = {}  # id(program) -> the ProgramValues that set its uniforms last
         Context._current = self  # a new context is current
         self._owned = []
@@ -310,8 +310,8 @@ class Context:
 
     def finish(self):
         """Wait until the GL work queued so far is done (timings)."""
-        if self.mgl is not None:
-            self.mgl.finish()
+        if self._open:
+            self.device.finish()
 
     def error(self):
         """The device's GL error flag (``"GL_NO_ERROR"`` when none)."""

@@ -21,6 +21,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from ..errors import ContextError
+from ..io.signals import signals_held
 
 # (ONE, ONE), (ONE, ONE_MINUS_SRC_ALPHA), (ZERO, SRC_COLOR): a product, what light passes.
 BLEND_FUNCTIONS = {"add": (1, 1), "over": (1, 0x0303), "multiply": (0, 0x0300)}
@@ -123,6 +124,9 @@ class GLDevice:
         call for it; where moderngl's own loader is not there it does nothing (a flush changes
         speed, never results)."""
         self._gl_function("glFlush")()
+
+    def finish(self):
+        self.mgl.finish()
 
     def screen(self):
         """The window's own framebuffer, where the context was made on a window."""
@@ -447,6 +451,9 @@ class RecordingDevice:
     def flush(self):
         self._record("flush")
 
+    def finish(self):
+        pass
+
     def close(self):
         self._record("close")
 
@@ -634,34 +641,3 @@ def _reachable_identifiers(code):
             words |= found
             todo += [w for w in found if w in bodies]
     return words
-
-
-@contextmanager
-def signals_held():
-    """SIGINT, SIGTERM and SIGALRM blocked in this thread while the block runs (a driver's
-    compile), then delivered: Python then raises its KeyboardInterrupt between bytecodes, as for
-    any other moment. A signal that landed inside llvmpipe's compile ended a run in a
-    segmentation fault (3 in 150 runs of `run wind` killed 0.1-0.6 s in, every one in moderngl's
-    program()); with the signals held, none in 300. SIGALRM too: the command re-delivers an
-    interrupt that landed in an import by a 5 ms alarm.
-
-    A thread started inside the block inherits the mask, and so never takes the process's
-    signals: start every helper thread that lives through GL calls here. The kernel hands a
-    process's signal to any thread that does not block it, and Python then runs its handler in
-    the main thread at once, even inside program() (a phase timer's thread took it: 3 compile
-    loops in 4 crashed, and `run wind` 1 in 400 under SIGTERM). Off the main thread, or without
-    pthread_sigmask, the block runs as it is."""
-    import signal
-    import threading
-
-    if not hasattr(signal, "pthread_sigmask") or \
-            threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held = {signal.SIGINT, signal.SIGTERM} | ({signal.SIGALRM} if hasattr(signal, "SIGALRM")
-                                               else set())
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    try:
-        yield
-    finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, previous)

@@ -23,12 +23,20 @@ INSTALL_HINT = (
     "libgl1-mesa-dri libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also "
     "works)"
 )
-def _backends():
-    """Back-ends to try, in order; ES2PARTICLES_BACKEND picks one (egl, or '' for the default)."""
-    forced = os.environ.get("ES2PARTICLES_BACKEND")
-    if forced is not None:
-        return [forced or None]
-    return ["egl", None]
+# What --backend (and ES2PARTICLES_BACKEND, for the library) choose among: desktop OpenGL through
+# moderngl, OpenGL ES through EGL's ES API (gles.py), or the first that opens.
+BACKENDS = ("gl", "gles", "auto")
+
+
+def chosen_backend(backend=None):
+    """``backend``, or ES2PARTICLES_BACKEND's, or auto; anything else is refused naming where it
+    came from."""
+    where = "--backend"
+    if backend is None:
+        backend, where = os.environ.get("ES2PARTICLES_BACKEND") or "auto", "ES2PARTICLES_BACKEND"
+    if backend not in BACKENDS:
+        raise ContextError(f"{where} must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    return backend
 
 
 # Profiles to ask for, in order, with the GL version requested. A request for 3.0 names no
@@ -52,14 +60,36 @@ def _profiles():
     return chosen
 
 
-def open_context(device=None):
+def open_context(device=None, backend=None):
     """Make a headless :class:`Context`, or raise :class:`ContextError` saying what to install.
     ``device``: the index of the EGL device to render on, where a machine has several GPUs
-    (None: the driver's first)."""
+    (None: the driver's first). ``backend``: ``gl`` (desktop OpenGL through moderngl), ``gles``
+    (OpenGL ES through EGL), or ``auto`` (desktop GL where moderngl can make a context, ES
+    otherwise); None: ES2PARTICLES_BACKEND's, else auto."""
+    backend = chosen_backend(backend)
+    failures = []
+    if backend in ("gl", "auto"):
+        try:
+            return Context(_desktop(device), probe=probe_capabilities)
+        except ContextError as error:
+            if backend == "gl":
+                raise
+            failures.append(str(error))
+    try:
+        from .gles import GLESDevice
+
+        return Context(GLESDevice(device), probe=probe_capabilities)
+    except ContextError as error:
+        failures.append(f"OpenGL ES: {error}")
+    raise ContextError("; ".join(failures))
+
+
+def _desktop(device):
+    """A moderngl device on moderngl's EGL back-end, else its default one."""
     import moderngl
 
     failures = []
-    for backend in _backends():
+    for backend in ("egl", None):
         kwargs = {"standalone": True}
         if backend:
             kwargs["backend"] = backend
@@ -73,7 +103,7 @@ def open_context(device=None):
                 errors.append(str(error).strip() or type(error).__name__)
                 continue
             if mgl.version_code >= MIN_GL_VERSION:
-                return Context(GLDevice(mgl, backend or "default", profile), probe=probe_capabilities)
+                return GLDevice(mgl, backend or "default", profile)
             errors.append(f"{profile} profile is GL {mgl.version_code}, below {MIN_GL_VERSION}")
             mgl.release()
         unique = list(dict.fromkeys(errors))  # a missing library fails both profiles alike

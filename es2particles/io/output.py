@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ParameterError
+from .signals import signals_deferred
 
 IMAGE_SUFFIXES = {".png": "PNG"}
 NAME_MAX = 255  # bytes of a file name on the file systems this runs on
@@ -481,41 +482,6 @@ class OutputGroup:
                     os.remove(tmp)
             self.staged = {}
             remove_made_folders(self.made)
-
-
-@contextlib.contextmanager
-def signals_deferred():
-    """SIGINT and SIGTERM (and a Python-handled SIGALRM) held back while the block runs, then
-    delivered as they would have been (the command turns both into KeyboardInterrupt): a few
-    renames are not cut in two. In a thread other than the main one, where Python runs no
-    signal handler, nothing is changed."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught = []
-
-    def hold(signum, frame):
-        caught.append(signum)
-
-    previous = {}
-    # SIGALRM too where Python handles it: the command delivers an interrupt that landed in an
-    # import or a finalizer by a 5 ms timer (cli._terminate_as_interrupt), which fired inside
-    # the writable-folder probe and left it behind (SIGTERM 0.12 s into `run wind`).
-    alarm = [signal.SIGALRM] if hasattr(signal, "SIGALRM") and callable(
-        signal.getsignal(signal.SIGALRM)) else []
-    for number in (signal.SIGINT, signal.SIGTERM, *alarm):
-        if signal.getsignal(number) is not None:  # None: a handler set outside Python, kept
-            previous[number] = signal.signal(number, hold)
-    try:
-        yield
-    finally:
-        for number, handler in previous.items():
-            signal.signal(number, handler)
-        for number in dict.fromkeys(caught):
-            signal.raise_signal(number)
 
 
 @contextlib.contextmanager

@@ -14,7 +14,7 @@ def progress(iterable, total, label, unit="frame"):
     except ImportError:
         tqdm = None
     if tqdm is not None and terminal:
-        from ..gl.device import signals_held
+        from .signals import signals_held
 
         with signals_held():  # tqdm's monitor thread never takes the process's signals
             bar = tqdm(iterable, total=total, desc=label, unit=unit, file=sys.stderr)

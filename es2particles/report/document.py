@@ -15,9 +15,9 @@ import numpy as np
 from . import charts
 from . import measure
 from . import stability
-from ..io.output import (OutputGroup, make_folders, remove_made_folders, signals_deferred,
-                         write_atomic)
+from ..io.output import OutputGroup, make_folders, remove_made_folders, write_atomic
 from ..io.progress import progress
+from ..io.signals import signals_deferred
 
 QUICK = {"dejong_n": (10, 14, 16), "collision_n": (10, 12), "dt_k": range(4, 11),
          "horizon": 0.25, "cycles": (2 ** 14, 400), "largest": False}

@@ -102,7 +102,7 @@ def recording():
 
 
 # The GL tier's core, which runs on both back-ends (docs/backends.md): packing, each scene's
-# step against its float64 reference, every renderer. Its tests that take ``ctx`` or ``gl`` run
+# step against its float64 reference, every renderer, the pages against EGL's pictures. Its tests that take ``ctx`` or ``gl`` run
 # once on desktop GL and once on OpenGL ES (ids [gl] and [gles]), unless ES2PARTICLES_BACKEND
 # names one (then every test runs on that one).
 BOTH_BACKENDS = {"test_packing", "test_bits32", "test_numerics", "test_wide", "test_simulation",
@@ -111,7 +111,7 @@ BOTH_BACKENDS = {"test_packing", "test_bits32", "test_numerics", "test_wide", "t
                  "test_grids", "test_grids3d", "test_neighbours", "test_boids", "test_sph",
                  "test_liquid", "test_flame", "test_render", "test_meshes", "test_sort",
                  "test_sprite_roles", "test_metaballs", "test_shafts", "test_bloom",
-                 "test_soft", "test_lamp", "test_trails", "test_vertex_fetch"}
+                 "test_soft", "test_lamp", "test_trails", "test_vertex_fetch", "test_export"}
 
 
 def pytest_generate_tests(metafunc):

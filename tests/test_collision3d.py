@@ -752,6 +752,37 @@ def test_thin_shell_does_not_leak(gl):
         sim.release()
 
 
+def test_throws_at_a_one_voxel_shell_stay_out_by_the_side_of_entry(gl):
+    """Particles thrown at the open dome (one voxel thick in the field) from a voxel outside it,
+    at 3 to 8 m/s (a step of 0.8 to 2.1 voxels, in sub-steps of at most half a voxel): inside a
+    wall that thin a sub-step can end nearer the far face, whose normal points on into the
+    cavity; the side-of-entry rule turns such a particle back the way it came. 1 throw in 16384
+    got through here (the field is irregular at some of the mesh's facets); without the rule, 59.
+    The bound: 1 in 1000."""
+    pytest.importorskip("trimesh")
+    p = Collision3DParams(gravity=(0.0, 0.0, 0.0), jitter=0.0, viscosity=0.0, bounce=1.0,
+                          lifetime=(400.0, 400.0))
+    scene = Collision3D(p.changed(shape=str(DATA / "dome.obj"), field_resolution=40))
+    voxel, centre = scene.field.voxel, np.array([0.0, 0.5, 0.0])  # rim at y = 0.5
+    sim = Simulation(gl, scene.graph(), 4096, fmt="rgba32f")
+    try:
+        n = sim.count
+        toward = np.random.default_rng(1).normal(size=(n, 3))
+        toward[:, 1] = np.abs(toward[:, 1]) + 0.8  # the cap, above the rim
+        toward /= np.linalg.norm(toward, axis=1)[:, None]
+        through = 0
+        for speed in (3.0, 4.0, 6.0, 8.0):
+            sim.upload("position", centre + toward * (1 + voxel))
+            sim.upload("velocity", -toward * speed)
+            sim.upload("life", np.tile([1.0, 300.0], (n, 1)))
+            sim.step()
+            r = np.linalg.norm(sim.download("position") - centre, axis=1)
+            through += int(np.count_nonzero(r < 1 - voxel))
+        assert through <= 4 * n // 1000, f"{through} of {4 * n} throws got into the cavity"
+    finally:
+        sim.release()
+
+
 def test_no_tunnelling_at_the_largest_speed(gl):
     """Particles at the largest speed the velocity range holds, in steps far longer than the
     plate is thick (0.6 m a step against 2 voxels), all stay on their side of it."""

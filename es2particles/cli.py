@@ -458,7 +458,7 @@ def _add_settings(parser, scene):
 
 
 def _add_backend(parser):
-    from .gl.egl import BACKENDS
+    from .gl import BACKENDS
 
     parser.add_argument("--backend", default=None, choices=BACKENDS,
                         help="the GL to run on: gl (desktop OpenGL), gles (OpenGL ES through "

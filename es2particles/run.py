@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 
 from .errors import ParameterError, check_range
 from .frame.settings import FrameSettings
-from .gl.egl import BACKENDS
+from .gl import BACKENDS
 from .io.nesting import check_nesting
 
 MAX_FRAMES = 100000

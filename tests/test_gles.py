@@ -55,16 +55,46 @@ def es():
 def test_the_es_context_reports_the_articles_table(es):
     """info's figures come from the ES context itself: an ES version, GLSL ES precisions that
     meet GLSL ES 1.00's least (highp: 2^62 and 16 bits), the vertex texture units the plans
-    need, and the float formats rendered to and blended into by real draws."""
+    need, and the formats that render and blend by real draws, as the extensions the context
+    lists say they should (ES 3: float targets with EXT_color_buffer_float, half float ones
+    with it or EXT_color_buffer_half_float, blending into 32-bit floats with EXT_float_blend)."""
     caps = es.caps
     assert caps.backend == "gles" and caps.version.startswith("OpenGL ES")
     assert caps.max_vertex_texture_units >= 1 and caps.max_texture_size >= 2048
     low, high, bits = caps.precision["fragment"]["high float"]
     assert low >= 62 and high >= 62 and bits >= 16
-    for fmt in ("rgba8", "rgba16f", "rgba32f"):
-        assert caps.renderable[fmt] is not None
-    assert caps.renderable["rgba8"] and caps.blendable["rgba8"]
-    assert "GL_OES_texture_float" in caps.extensions or "OES_texture_float" in str(caps)
+    listed = caps.extensions
+    if es.device.es3:
+        full = "GL_EXT_color_buffer_float" in listed
+        half = full or "GL_EXT_color_buffer_half_float" in listed
+        assert (caps.renderable["rgba32f"], caps.renderable["rgba16f"]) == (full, half)
+        assert caps.blendable["rgba32f"] == (full and "GL_EXT_float_blend" in listed)
+    assert caps.renderable["rgba8"] and caps.blendable["rgba8"]  # ES 2.0's own
+    assert caps.article_extension("OES_texture_float") == ("GL_OES_texture_float" in listed)
+    report = dict(caps.lines())
+    assert report["OES_texture_float"] == ("yes" if "GL_OES_texture_float" in listed else "no")
+
+
+def test_a_uniform_of_the_wrong_shape_is_refused_not_half_set(es):
+    """As moderngl's packing does: a vec4 given three, five or one number(s), or two vec4s, is
+    refused (the draw command says it in one line) and leaves no GL error behind, where
+    glUniform4fv would have set nothing, or part of it, in silence."""
+    from es2particles.gl.command import DrawCommand
+    from es2particles.errors import ParameterError
+
+    group = es.group()
+    try:
+        command = DrawCommand(group, "shape", "lib/constant.frag")
+        command.set("u_colour", (0.1, 0.2, 0.3, 0.4))
+        for wrong in ((0.1, 0.2, 0.3), (0.1, 0.2, 0.3, 0.4, 0.5), 0.5):
+            with pytest.raises(ParameterError, match="u_colour"):
+                command.set("u_colour", wrong)
+        program = command.program
+        with pytest.raises(ValueError):
+            es.device.set_uniform(program, "u_colour", [(1, 2, 3, 4), (5, 6, 7, 8)])
+    finally:
+        group.release()
+    assert es.error() == "GL_NO_ERROR"
 
 
 @pytest.mark.parametrize("fmt, dtype", [("rgba8", np.uint8), ("rgba16f", np.float16),

@@ -2,7 +2,6 @@
 written here, what the machine has read from given file contents, the one-line refusal, and
 runs under a real address-space limit (``ulimit -v``) refused before they make anything."""
 
-import os
 import subprocess
 import sys
 import time

@@ -382,7 +382,8 @@ def manifest(run):
 
     described = {"scene": run.scene, "options": dict(sorted(run.options.items())),
                  "settings": {k: repr(v) for k, v in asdict(run.settings).items()},
-                 "frames": run.frames, "steps_per_frame": run.steps_per_frame, "fps": run.fps}
+                 "frames": run.frames, "steps_per_frame": run.steps_per_frame, "fps": run.fps,
+                 "backend": run.backend}
     return json.loads(json.dumps(described, default=str))  # as it reads back from the file
 
 

@@ -164,6 +164,7 @@ class DrawCommand:
         if len(textures) != len(self.samplers) or any(s not in textures for s in self.samplers):
             self.check_fed(textures)
         bound = {self.units[name]: textures[name] for name in self.samplers}
+        self.ctx.make_current()
         self.values.current()
         self.ctx.device.draw(self.vertex_array, framebuffer, bound, self.state, self.primitive,
                              first, count, self.stage)

@@ -376,6 +376,7 @@ class Context:
         Packed state must be sampled NEAREST: linear filtering would mix high and low bytes.
         """
         components, dtype = TEXTURE_FORMATS[texture_format(fmt)]
+        self.make_current()
         return self.own(self.device.texture(tuple(size), components, dtype, data,
                                             linear=not filter_nearest))
 
@@ -402,14 +403,17 @@ class Context:
         return tex
 
     def framebuffer(self, texture, depth=None):
+        self.make_current()
         return self.own(self.device.framebuffer(texture, depth))
 
     def depth(self, size, texture=False):
         """A depth buffer of ``size`` (for a framebuffer that depth-tests); with ``texture``, a
         depth texture that shaders can also sample."""
+        self.make_current()
         return self.own(self.device.depth_buffer(tuple(size), texture))
 
     def buffer(self, data):
+        self.make_current()
         return self.own(self.device.buffer(data))
 
     def sources(self, vertex, fragment, defines=None, vertex_prelude=None, fragment_prelude=None,
@@ -433,11 +437,13 @@ class Context:
         if key not in self._programs:
             sources = self.sources(vertex, fragment, defines, vertex_prelude, fragment_prelude,
                                    fragment_epilogue)
+            self.make_current()
             self._programs[key] = self.own(compile_program(self.device, vertex, fragment,
                                                            sources))
         return self._programs[key]
 
     def vertex_array(self, program, content, indices=None):
+        self.make_current()
         return self.own(self.device.vertex_array(program, content, indices))
 
     def fullscreen(self, program):
@@ -454,6 +460,7 @@ class Context:
 
     def clear(self, framebuffer, colour, depth=None):
         """Clear ``framebuffer`` to ``colour`` (and its depth buffer to ``depth``)."""
+        self.make_current()
         self.device.clear(framebuffer, tuple(float(c) for c in colour), depth)
 
     def read(self, texture, components=None):
@@ -477,6 +484,8 @@ class Context:
             if given is None and self._probe is None:
                 raise ContextError("this context's capabilities are neither stated by its device "
                                    "nor probed: open it with open_context()")
+            if given is None:
+                self.make_current()  # the probes draw
             self._caps = given if given is not None else self._probe(self)
         return self._caps
 
@@ -508,6 +517,7 @@ class ProgramValues:
 
     def set(self, name, value):
         """Keep ``value`` for uniform ``name`` (active in the program) and set it now."""
+        self.ctx.make_current()
         self.current()
         self.ctx.device.set_uniform(self.program, name, value)
         self.values[name] = value

@@ -14,6 +14,7 @@ import sys
 import numpy as np
 
 from ..errors import ContextError
+from . import BACKENDS
 from .command import DrawCommand
 from .context import TEXTURE_FORMATS, Capabilities, Context, FormatFlags, numpy_dtype
 from .device import DrawState, GLDevice
@@ -23,9 +24,6 @@ INSTALL_HINT = (
     "libgl1-mesa-dri libegl-mesa0' (Mesa llvmpipe renders on the CPU; a GPU's own driver also "
     "works)"
 )
-# What --backend (and ES2PARTICLES_BACKEND, for the library) choose among: desktop OpenGL through
-# moderngl, OpenGL ES through EGL's ES API (gles.py), or the first that opens.
-BACKENDS = ("gl", "gles", "auto")
 
 
 def chosen_backend(backend=None):

@@ -2,7 +2,7 @@
 profile moderngl can use (a Raspberry Pi's VideoCore, Mali boards under Panfrost), and the check
 that the package's ES 2.0 code runs in an ES context, not only in the browser.
 
-A thin ctypes layer over libEGL and libGLESv2, not PyOpenGL: the device needs 75 entry points
+A thin ctypes layer over libEGL and libGLESv2, not PyOpenGL: the device needs 76 entry points
 (the glUniform family is 14 of them), all of ES 2.0 core (ASTC and the float formats are ES 2.0
 calls with an extension's enums), which ctypes calls directly, with no further dependency.
 :class:`GLESDevice` answers the same interface as the moderngl
@@ -21,14 +21,14 @@ import re
 
 import numpy as np
 
-from ..errors import ContextError
+from ..errors import CapabilityError, ContextError
 from ..io.signals import signals_held
 from .device import BLEND_FUNCTIONS, PRECISIONS, ActiveUniform, ProgramError
 
 # -- enums (the ES 2.0 headers' values) ---------------------------------------------------------
 EGL_NONE, EGL_EXTENSIONS, EGL_RENDERABLE_TYPE = 0x3038, 0x3055, 0x3040
 EGL_OPENGL_ES2_BIT, EGL_OPENGL_ES_API, EGL_CONTEXT_CLIENT_VERSION = 0x4, 0x30A0, 0x3098
-EGL_PLATFORM_DEVICE_EXT = 0x313F
+EGL_PLATFORM_DEVICE_EXT, EGL_SURFACE_TYPE = 0x313F, 0x3033
 
 TEXTURE_2D, TEXTURE0, RGBA, RED = 0x0DE1, 0x84C0, 0x1908, 0x1903
 UNSIGNED_BYTE, UNSIGNED_INT, FLOAT = 0x1401, 0x1405, 0x1406
@@ -95,6 +95,7 @@ SIGNATURES = {
     "glReadPixels": (None, (_i, _i, _i, _i, _u, _u, _p)),
     "glGenBuffers": (None, (_i, _p)), "glDeleteBuffers": (None, (_i, _p)),
     "glBindBuffer": (None, (_u, _u)), "glBufferData": (None, (_u, ctypes.c_ssize_t, _p, _u)),
+    "glBufferSubData": (None, (_u, ctypes.c_ssize_t, ctypes.c_ssize_t, _p)),
     "glCreateShader": (_u, (_u,)), "glDeleteShader": (None, (_u,)),
     "glShaderSource": (None, (_u, _i, _p, _p)), "glCompileShader": (None, (_u,)),
     "glGetShaderiv": (None, (_u, _u, _p)), "glGetShaderInfoLog": (None, (_u, _i, _p, _p)),
@@ -178,8 +179,9 @@ class Handle:
         self.device.release(self)
 
 
-# a moderngl-style vertex format item: "2f", "4f1" (normalised bytes), "3x4" (padding)
-_FORMAT_ITEM = re.compile(r"^(\d*)([fiux])(\d*)$")
+# a moderngl-style vertex format item the device reads: "2f" or "2f4" (floats), "4f1" (normalised
+# bytes), "3x4" or "x" (padding, 4 or 1 bytes an item)
+_FORMAT_ITEM = re.compile(r"^(\d*)(f|x)(1|4)?$")
 
 
 class GLESDevice:
@@ -192,7 +194,11 @@ class GLESDevice:
         self.egl = _bind(_load(["libEGL.so.1", "libEGL.so"], "libEGL"), EGL_SIGNATURES)
         self.gl = _bind(_load(["libGLESv2.so.2", "libGLESv2.so"], "libGLESv2"), SIGNATURES)
         self.display, self.context = self._open(device_index)
-        self.make_current()
+        try:
+            self.make_current()
+        except ContextError:
+            self.egl.eglDestroyContext(self.display, self.context)
+            raise
         version = self.gl.glGetString(VERSION).decode(errors="replace")
         found = re.search(r"OpenGL ES (\d+)\.(\d+)", version)
         self.es3 = bool(found) and int(found.group(1)) >= 3
@@ -218,6 +224,9 @@ class GLESDevice:
                     raise ContextError(f"EGL device {index} does not exist (there are "
                                        f"{count.value})")
                 display = platform(EGL_PLATFORM_DEVICE_EXT, devices[index], None)
+        if not display and device_index is not None:
+            raise ContextError(f"EGL device {device_index} cannot be chosen here: this EGL lists "
+                               "no devices (EGL_EXT_platform_device)")
         if not display:
             display = egl.eglGetDisplay(None)
         if not display or not egl.eglInitialize(display, None, None):
@@ -225,12 +234,20 @@ class GLESDevice:
                                f"0x{egl.eglGetError():04x})")
         if not egl.eglBindAPI(EGL_OPENGL_ES_API):
             raise ContextError("this EGL has no OpenGL ES API")
-        attributes = (_i * 3)(EGL_RENDERABLE_TYPE, EGL_OPENGL_ES2_BIT, EGL_NONE)
+        listed = (egl.eglQueryString(display, EGL_EXTENSIONS) or b"").decode()
+        if "EGL_KHR_surfaceless_context" not in listed:
+            raise ContextError("this EGL cannot make a context current with no surface "
+                               "(EGL_KHR_surfaceless_context)")
+        # any surface type: the context draws into framebuffer objects, never a surface
+        attributes = (_i * 5)(EGL_RENDERABLE_TYPE, EGL_OPENGL_ES2_BIT, EGL_SURFACE_TYPE, 0,
+                              EGL_NONE)
         config, found = _p(), _i()
-        egl.eglChooseConfig(display, attributes, ctypes.byref(config), 1, ctypes.byref(found))
-        # none found: EGL_KHR_no_config_context's "no config" (Mesa's device platform has no
-        # configs with surfaces, and a context with no surface needs none)
-        context = egl.eglCreateContext(display, config if found.value else None, None,
+        if not egl.eglChooseConfig(display, attributes, ctypes.byref(config), 1,
+                                   ctypes.byref(found)) or not found.value:
+            if "EGL_KHR_no_config_context" not in listed:
+                raise ContextError("this EGL has no config for OpenGL ES 2")
+            config = None  # EGL_KHR_no_config_context: a context of no config
+        context = egl.eglCreateContext(display, config, None,
                                        (_i * 3)(EGL_CONTEXT_CLIENT_VERSION, 2, EGL_NONE))
         if not context:
             raise ContextError(f"EGL could not make an OpenGL ES 2 context (EGL error "
@@ -277,6 +294,9 @@ class GLESDevice:
         return table
 
     def make_current(self):
+        # eglMakeCurrent acts on the thread's current API, which moderngl's EGL leaves on desktop
+        # OpenGL whenever it makes a context
+        self.egl.eglBindAPI(EGL_OPENGL_ES_API)
         if not self.egl.eglMakeCurrent(self.display, None, None, self.context):
             raise ContextError(f"eglMakeCurrent failed (EGL error 0x{self.egl.eglGetError():04x})")
 
@@ -293,6 +313,7 @@ class GLESDevice:
         for framebuffer in self._read_framebuffers.values():
             self.gl.glDeleteFramebuffers(1, ctypes.byref(_u(framebuffer)))
         self._read_framebuffers = {}
+        self.egl.eglBindAPI(EGL_OPENGL_ES_API)  # release the ES context, not another API's
         self.egl.eglMakeCurrent(self.display, None, None, None)
         self.egl.eglDestroyContext(self.display, self.context)
         self.context = None
@@ -340,7 +361,7 @@ class GLESDevice:
         gl = self.gl
         if texture:
             depth = Handle(self, "depth buffer", self._gen(gl.glGenTextures), size=tuple(size),
-                           texture=True)
+                           texture=True, components=1, dtype="f4")
             gl.glBindTexture(TEXTURE_2D, depth.name)
             for parameter in (TEXTURE_MIN_FILTER, TEXTURE_MAG_FILTER):
                 gl.glTexParameteri(TEXTURE_2D, parameter, NEAREST)
@@ -376,8 +397,11 @@ class GLESDevice:
         return fbo
 
     def buffer(self, data):
+        data = bytes(data)
         buf = Handle(self, "buffer", self._gen(self.gl.glGenBuffers), nbytes=len(data))
-        self.write(buf, data)
+        self.gl.glBindBuffer(ARRAY_BUFFER, buf.name)
+        self.gl.glBufferData(ARRAY_BUFFER, len(data), data, STATIC_DRAW)
+        self.gl.glBindBuffer(ARRAY_BUFFER, 0)
         return buf
 
     def program(self, vertex, fragment):
@@ -434,37 +458,48 @@ class GLESDevice:
                 for name, (_, kind, size) in program.uniforms.items()}
 
     def set_uniform(self, program, name, value):
-        location, kind, _ = program.uniforms[name]
+        """Set a uniform; a value of the wrong shape or kind raises ValueError, as moderngl's
+        packing does (the draw command says it in one line), rather than setting part of it or
+        leaving a GL error behind."""
+        location, kind, length = program.uniforms[name]
         family, width = UNIFORM_TYPES[kind]
+        per = width * width if family == "m" else width
+        values = np.asarray(value, dtype=np.float64).ravel()
+        count = values.size // per
+        if values.size % per or not 1 <= count <= length:
+            raise ValueError(f"{values.size} number(s) do not fill {length} element(s) of "
+                             f"{per}")
+        if family == "i" and not np.array_equal(values, np.round(values)):
+            raise ValueError(f"an int uniform takes whole numbers, got {value!r}")
         self.gl.glUseProgram(program.name)
         if family == "i":
-            values = np.ascontiguousarray(value, dtype=np.int32).ravel()
-            getattr(self.gl, f"glUniform{width}iv")(location, values.size // width,
-                                                    values.ctypes.data)
+            data = np.ascontiguousarray(values, dtype=np.int32)
+            getattr(self.gl, f"glUniform{width}iv")(location, count, data.ctypes.data)
         elif family == "f":
-            values = np.ascontiguousarray(value, dtype=np.float32).ravel()
-            getattr(self.gl, f"glUniform{width}fv")(location, values.size // width,
-                                                    values.ctypes.data)
+            data = np.ascontiguousarray(values, dtype=np.float32)
+            getattr(self.gl, f"glUniform{width}fv")(location, count, data.ctypes.data)
         else:  # column-major, as moderngl takes a matrix (ES 2.0 allows no transpose)
-            values = np.ascontiguousarray(value, dtype=np.float32).ravel()
-            getattr(self.gl, f"glUniformMatrix{width}fv")(location, values.size // width ** 2,
-                                                          0, values.ctypes.data)
+            data = np.ascontiguousarray(values, dtype=np.float32)
+            getattr(self.gl, f"glUniformMatrix{width}fv")(location, count, 0, data.ctypes.data)
 
     def vertex_array(self, program, content, indices=None):
         """The attribute bindings of ``content`` (moderngl's form: buffer, "2f 4f1 3x4",
         names...), set at each draw (ES 2.0 has no vertex array objects); attributes the
         program does not use are skipped, as padding."""
+        if indices is not None and not self.es3 and \
+                "GL_OES_element_index_uint" not in self.extensions():
+            raise CapabilityError("32-bit vertex indices need OpenGL ES 3 or "
+                                  "OES_element_index_uint, which this ES 2.0 context lacks")
         bindings, vertices = [], None
         for buffer, layout, *names in content:
             items = [_FORMAT_ITEM.match(item) for item in layout.split()]
             if None in items:
-                raise ContextError(f"vertex format {layout!r} is not one this device reads")
-            stride = sum(int(m.group(1) or 1) * int(m.group(3) or (1 if m.group(2) == "x" else 4))
-                         for m in items)
+                raise ContextError(f"vertex format {layout!r} is not one this device reads "
+                                   "(floats 'Nf', normalised bytes 'Nf1', padding 'Nx4')")
+            stride = sum(int(m.group(1) or 1) * _item_bytes(m) for m in items)
             offset, named = 0, iter(names)
             for match in items:
-                count, kind = int(match.group(1) or 1), match.group(2)
-                size = int(match.group(3) or (1 if kind == "x" else 4))
+                count, kind, size = int(match.group(1) or 1), match.group(2), _item_bytes(match)
                 if kind != "x":
                     name = next(named)
                     if name in program.attributes:
@@ -524,10 +559,17 @@ class GLESDevice:
             gl.glFramebufferTexture2D(FRAMEBUFFER, COLOR_ATTACHMENT0, TEXTURE_2D, texture.name, 0)
             self._read_framebuffers[texture.name] = fbo
         gl.glBindFramebuffer(FRAMEBUFFER, self._read_framebuffers[texture.name])
+        status = gl.glCheckFramebufferStatus(FRAMEBUFFER)
+        if status != FRAMEBUFFER_COMPLETE:
+            raise CapabilityError(f"this {texture.kind} cannot be read back here: a framebuffer "
+                                  f"of it is not complete (status 0x{status:04x})")
         w, h = texture.size
         byte = texture.dtype == "f1"
         out = np.empty((h, w, 4), np.uint8 if byte else np.float32)
         gl.glReadPixels(0, 0, w, h, RGBA, UNSIGNED_BYTE if byte else FLOAT, out.ctypes.data)
+        error = self.error()
+        if error != "GL_NO_ERROR":
+            raise CapabilityError(f"glReadPixels of a {texture.dtype} texture failed with {error}")
         keep = texture.components if components is None else components
         out = out[:, :, :keep]
         if texture.dtype == "f2":
@@ -536,11 +578,12 @@ class GLESDevice:
 
     def write(self, obj, data):
         gl = self.gl
-        if obj.kind == "buffer":
+        if obj.kind == "buffer":  # into the buffer's store, as moderngl's write
             data = bytes(data)
-            obj.nbytes = len(data)
+            if len(data) > obj.nbytes:
+                raise ContextError(f"{len(data)} bytes do not fit a buffer of {obj.nbytes}")
             gl.glBindBuffer(ARRAY_BUFFER, obj.name)
-            gl.glBufferData(ARRAY_BUFFER, len(data), data, STATIC_DRAW)
+            gl.glBufferSubData(ARRAY_BUFFER, 0, len(data), data)
             gl.glBindBuffer(ARRAY_BUFFER, 0)
             return
         fmt, kind = obj.upload
@@ -568,7 +611,7 @@ class GLESDevice:
             try:
                 if va.indices is not None:
                     gl.glBindBuffer(ELEMENT_ARRAY_BUFFER, va.indices.name)
-                    gl.glDrawElements(mode, count, UNSIGNED_INT, first * 4)
+                    gl.glDrawElements(mode, count, UNSIGNED_INT, int(first) * 4)
                     gl.glBindBuffer(ELEMENT_ARRAY_BUFFER, 0)
                 else:
                     gl.glDrawArrays(mode, first, count)
@@ -613,6 +656,11 @@ def _texture_formats(es3):
                 (4, "f4"): (RGBA32F, RGBA, FLOAT), (1, "f4"): (R32F, RED, FLOAT)}
     return {(4, "f1"): (RGBA, RGBA, UNSIGNED_BYTE), (4, "f2"): (RGBA, RGBA, HALF_FLOAT_OES),
             (4, "f4"): (RGBA, RGBA, FLOAT), (1, "f4"): (RED, RED, FLOAT)}  # RED: EXT_texture_rg
+
+
+def _item_bytes(match):
+    """Bytes of one component of a vertex format item ("f": 4, "f1": 1, "x": 1, "x4": 4)."""
+    return int(match.group(3) or (4 if match.group(2) == "f" else 1))
 
 
 def _pointer(data, nbytes):

@@ -144,12 +144,18 @@ def write_run(run, scene, path):
 
 def resolved_settings(settings, scene):
     """The frame settings ``scene`` uses, each its value in ``settings`` or its default, as a
-    run file writes them (the gradient 'none' where it is off, bloom a table or false)."""
-    from .frame.settings import COMMON_SETTINGS, resolve, scene_rendering
+    run file writes them (the gradient 'none' where it is off, bloom a table or false); the
+    state settings only where the scene keeps state, each as the value that acts (a file naming
+    another would be refused on reading)."""
+    from .frame.settings import (COMMON_SETTINGS, STATE_SETTINGS, acting_state_settings,
+                                 keeps_state, resolve, scene_rendering)
 
     out = {}
     rendering = scene_rendering(scene, settings.particles)
+    stateless = not keeps_state(scene, rendering)  # the flame's noise: its file would refuse them
     for name in COMMON_SETTINGS + tuple(rendering.settings):
+        if stateless and name in STATE_SETTINGS:
+            continue
         value = resolve(settings, scene.defaults, name, rendering)
         if name == "bloom":
             out["bloom"] = False if value is None else {
@@ -161,7 +167,7 @@ def resolved_settings(settings, scene):
         if name == "size" and not isinstance(value, str):
             value = f"{value[0]}x{value[1]}"
         out[name] = value
-    return out
+    return out if stateless else acting_state_settings(scene, out)
 
 
 def settings_from_mapping(mapping, where, scene=None):

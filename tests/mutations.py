@@ -675,6 +675,18 @@ MUTATIONS = (
                "sign = np.ones(len(points))"),),
              ("tests/test_collision3d.py::test_a_box_mesh_is_the_box_near_its_surface",
               "tests/test_collision3d.py::test_mesh_field_matches_the_sphere_it_approximates")),
+    Mutation("run-file-names-stateless-state", "run files",
+             "a run file names the state settings of a scene that keeps no state (the flame's "
+             "noise): the file is refused on reading",
+             (("es2particles/run.py", "        if stateless and name in STATE_SETTINGS:",
+               "        if False:"),),
+             ("tests/test_runs.py::test_a_run_file_round_trips_every_option_at_a_value_other_than_its_default",)),
+    Mutation("run-file-inert-rounding", "run files",
+             "a run file writes the scene's default rounding where its state is float (the SPH "
+             "with --format rgba16f): the file is refused on reading",
+             (("es2particles/run.py", "    return out if stateless else acting_state_settings(scene, out)",
+               "    return out"),),
+             ("tests/test_runs.py::test_a_run_file_round_trips_every_option_at_a_value_other_than_its_default",)),
     # --- the OpenGL ES device (issue 43) --------------------------------------------------------
     Mutation("gles-no-blend", "OpenGL ES device",
              "a draw's blend state never switched on: every blended draw replaces",

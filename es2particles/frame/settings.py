@@ -254,6 +254,20 @@ def parse_trails(text):
 STATE_SETTINGS = ("particles", "format", "rounding", "seed")
 
 
+def state_quantities(scene):
+    """The quantities ``scene``'s step keeps (none: a scene that keeps no state here, such as
+    the flame's noise, which the state settings cannot act on)."""
+    from .graph import scene_graph
+
+    return list(scene_graph(scene, None).quantities.values())
+
+
+def keeps_state(scene, rendering):
+    """Whether the state settings (STATE_SETTINGS) act on ``scene`` drawn by ``rendering``:
+    its renderer reads particles, or its step keeps quantities."""
+    return bool(rendering.reads) or bool(state_quantities(scene))
+
+
 def _inert_state_setting(scene, settings, quantities):
     """(setting, why) of a state setting given that changes nothing for ``scene``'s state, the
     formats its ``quantities`` (its pass graph's, with no context) take in the format given
@@ -275,6 +289,22 @@ def _inert_state_setting(scene, settings, quantities):
                             f"here, always rounded to the nearest value: {settings.rounding} "
                             "rounding applies to 16-bit packed state (rgba8)")
     return None
+
+
+def acting_state_settings(scene, values):
+    """``values`` (the resolved settings a run file writes, by name) with each state setting
+    that would change nothing for ``scene`` written as the value that acts: the rounding of
+    float or 32-bit state is the nearest, a format its quantities ignore is rgba8. A file naming
+    the other value is refused on reading (--format rgba16f wrote the SPH's default dither)."""
+    values = dict(values)
+    quantities = state_quantities(scene)
+    for _ in range(2):  # the format, then the rounding in that format
+        given = FrameSettings(**{n: values[n] for n in ("format", "rounding") if n in values})
+        inert = _inert_state_setting(scene, given, quantities)
+        if inert is None:
+            break
+        values[inert[0]] = "nearest" if inert[0] == "rounding" else "rgba8"
+    return values
 
 
 def frames_independent(scene, settings):
@@ -333,11 +363,7 @@ def check_settings(settings, scene, rendering=None):
                              f"{'this setting' if len(unused) == 1 else 'these settings'} "
                              f"({rendering.kind})")
     stateful = [n for n in STATE_SETTINGS if n in settings.given()]
-    quantities = []
-    if stateful:
-        from .graph import scene_graph
-
-        quantities = list(scene_graph(scene, None).quantities.values())
+    quantities = state_quantities(scene) if stateful else []
     if stateful and not rendering.reads and not quantities:
         raise ParameterError(f"{OPTIONS.get(stateful[0], stateful[0])}: scene {scene.name!r} "
                              "keeps no state here (no particles, no grid): nothing to count, "

@@ -15,7 +15,7 @@ from es2particles.frame.memory import GiB, MiB
 from es2particles.io import memory as machine
 from es2particles.io.memory import Room
 from es2particles.frame.plan import plan_frame
-from es2particles.scenes import Confetti, DeJong, Fountain
+from es2particles.scenes import Confetti, DeJong, Fountain, Smoke
 
 COUNT, SIZE = 1000, (200, 100)  # 1000 particles sit in 32 x 32 texels
 TEXELS, PIXELS = 32 * 32, 200 * 100
@@ -283,22 +283,40 @@ def test_2_to_the_20_particles_run_under_the_same_limit(tmp_path, scene):
     assert out.stat().st_size > 0
 
 
+# Each path the estimate counts: the fountain's sprites by vertex texture fetch and without it
+# (the state read back into vertex buffers each frame), the confetti's quads (their vertex data
+# made from the state), the de Jong's density points, the smoke's sorted sprites and shadow map.
+# Measured here (MiB, measured / estimated): 230 / 288, 225 / 300, 318 / 394, 127 / 188,
+# 284 / 337. The wind's estimate is 248 for 126 (its start's numpy temporaries are counted at
+# their worst), too near the factor 2 for a test that must not flake; the boids' rgba8 sort cannot
+# key 2^20 particles' cells.
+PATHS = {"fountain": (Fountain, []), "fountain, no vertex fetch": (Fountain, ["vertex_fetch"]),
+         "confetti": (Confetti, []), "dejong": (DeJong, []), "smoke": (Smoke, [])}
+
+
 @pytest.mark.gl
 @pytest.mark.slow
-def test_the_estimate_bounds_a_run_s_peak_within_2x(tmp_path):
-    """The fountain at 2^20 particles: its peak resident size less a 1024-particle run's (the
-    interpreter, numpy and the driver) is at most the estimate, and at least half of it."""
+@pytest.mark.parametrize("path", sorted(PATHS))
+def test_the_estimate_bounds_a_run_s_peak_within_2x(tmp_path, path):
+    """2^20 particles: the run's peak resident size less a 1024-particle run's (the interpreter,
+    numpy and the driver) is at most the estimate, and at least half of it, on each path."""
+    scene, options = PATHS[path]
+    words = ["--vertex-fetch", "off"] if "vertex_fetch" in options else []
+    settings = {"vertex_fetch": "off"} if "vertex_fetch" in options else {}
+
     def peak(particles):
         status, _, err, peak, _ = limited(
-            [*COMMAND, "fountain", "--particles", str(particles), "--steps", "1", "--size",
-             "64x64", "--out", str(tmp_path / f"{particles}.png")], tmp_path / "logs",
+            [*COMMAND, scene.name, "--particles", str(particles), "--steps", "1", "--size",
+             "64x64", *words, "--out", str(tmp_path / f"{particles}.png")], tmp_path / "logs",
             limit=None, cwd=tmp_path)
         assert status == 0, err
         return peak
 
     grown = peak(2 ** 20) - peak(1024)
-    plan = plan_frame(Fountain(), FrameSettings(particles=2 ** 20, size=(64, 64), steps=1), None)
+    plan = plan_frame(scene(), FrameSettings(particles=2 ** 20, size=(64, 64), steps=1,
+                                             **settings), None)
     need = memory.estimate(plan)
     bound = need.total + need.made
+    print(f"{path}: measured {grown / MiB:.0f} MiB, estimated {bound / MiB:.0f} MiB")
     assert grown <= bound <= 2 * grown, (f"measured {grown / MiB:.0f} MiB, estimated "
                                          f"{bound / MiB:.0f} MiB: {need.describe()}")

@@ -43,7 +43,7 @@ from es2particles.gl.context import FORMAT_DTYPES, bytes_per_texel  # noqa: E402
 from es2particles.report.measure import timings  # noqa: E402
 from es2particles.io.output import encode_png  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
-from es2particles.render.post import Bloom  # noqa: E402
+from es2particles import Bloom  # noqa: E402
 from es2particles.scenes.collision import Collision  # noqa: E402
 from es2particles.twins.particle import step_reference  # noqa: E402
 from es2particles.scenes.dejong import DeJong  # noqa: E402

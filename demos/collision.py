@@ -16,7 +16,7 @@ from pathlib import Path
 from es2particles import open_context
 from es2particles.io.output import save_animation, save_image
 from es2particles.frame.pipeline import Pipeline
-from es2particles.render.post import Bloom
+from es2particles import Bloom
 from es2particles.scenes.collision import Collision, CollisionParams
 
 PARAMS = CollisionParams(shape="circle+box+capsule", gravity=(0.0, -3.0), drag=0.05, sliding=0.5,

@@ -21,7 +21,7 @@ from pathlib import Path
 from es2particles import open_context
 from es2particles.io.output import save_animation, save_image
 from es2particles.frame.pipeline import Pipeline
-from es2particles.render.post import Bloom
+from es2particles import Bloom
 from es2particles.scenes.dejong import DeJong
 
 COEFFICIENTS = (1.4, -2.3, 2.4, -2.1)

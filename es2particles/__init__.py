@@ -17,6 +17,7 @@ _EXPORTS = {
     "Pass": "frame.graph", "PassGraph": "frame.graph", "Plan": "frame.graph",
     "Pipeline": "frame.pipeline", "Simulation": "frame.simulation", "Layout": "frame.state",
     "Quantity": "frame.state", "Defaults": "frame.settings", "FrameSettings": "frame.settings",
+    "Bloom": "frame.settings",
     "Params": "params", "param": "params", "Scene": "scenes.base", "Fill": "scenes.base",
     "Emitter": "scenes.emitter", "EmitterParams": "scenes.emitter", "Camera": "render.camera",
     "Density": "render.points", "Sprites": "render.sprites", "Renderer": "frame.pipeline",

@@ -5,7 +5,7 @@ import pytest
 
 from masks import dilate
 from es2particles.frame.pipeline import Pipeline
-from es2particles.render.post import Bloom
+from es2particles import Bloom
 from es2particles.scenes.dejong import DeJong
 
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from es2particles.render.post import blur_taps
+from es2particles.frame.bloom import blur_taps
 
 
 def test_paired_linear_taps_equal_the_25_tap_gaussian():

@@ -89,7 +89,8 @@ def tone_map(ctx, run, total, particles):
     from ..frame.executor import Executor
     from ..frame.pipeline import read_rgb
     from ..frame.plan import PlanBuilder, Resource
-    from ..render.post import plan_bloom, plan_post
+    from ..frame.bloom import plan_bloom
+    from ..render.post import plan_post
 
     h, w = total.shape
     scene = run.make_scene()

@@ -1,19 +1,15 @@
-"""Post stages, as stages of the frame plan: the density's tone map with its gradient map, which
-turns a density texture into a picture, and bloom, which any rendering's picture takes. Each is
-optional: a switched-off stage makes no texture and never runs, and the plan says it was left
-out.
-
-- Tone map (+ gradient map): log curve of density, then a colour ramp (``ramps.py``) or grey.
-- Bloom (``frame/bloom.py``, planned by the frame over whatever picture a rendering presents):
-  bright pass at half resolution, separable Gaussian blur at 1/2 and 1/4 resolution, composite
-  onto the picture.
+"""The density's post stage, as a stage of the frame plan: the tone map with its gradient map,
+which turns a density texture into a picture (a log curve of density, then a colour ramp,
+``ramps.py``, or grey). It is optional: switched off, it makes no texture and never runs, and
+the plan says it was left out. Bloom, which any rendering's picture takes, is the frame's
+(``frame/bloom.py``).
 """
 
 import numpy as np
 
-from ..frame.bloom import blur_taps, plan_bloom, stage  # noqa: F401 - the post stages' own
+from ..frame.bloom import stage
 from ..frame.plan import Ref, Resource
-from ..frame.settings import Bloom, setting  # noqa: F401 - Bloom: the value plan_bloom takes
+from ..frame.settings import setting
 from .ramps import load_ramp
 
 

@@ -13,7 +13,8 @@ shadow map, whole frames with and without each part), ``--scenes boids`` the boi
 ``--scenes liquid`` the liquid's step likewise against its grids' builds and numpy, ``--scenes
 sph`` the SPH dam break's at 5, 2.5 and 1.25 cm spacing, ``--scenes neighbours`` a
 neighbour search through the grid against the sort alone and against every pair,
-``--scenes accumulate`` the image noise of
+``--scenes backends`` each scene's step and frame on desktop GL against OpenGL ES (the ES time
+over the GL time, alternating rounds), ``--scenes accumulate`` the image noise of
 ``--accumulate K`` against a float64 reference of 4x10^9 samples (10^8 with ``--quick``), ours and
 numpy, by samples and by time. It prints tables and writes
 them as Markdown to ``out/bench/bench.md``.
@@ -1023,6 +1024,54 @@ def sample_section(ctx, emit, repeats):
          f"{fmt_ms(draw)} ms, {draw[0] / ceiling['sliced'][0]:.2f}x the sliced ceiling.")
 
 
+# The scenes the backends section times, each at a count its step takes in tens of ms here
+# (None: the flame's noise keeps no particles).
+BACKEND_RUNS = {"dejong": 2 ** 18, "fountain": 2 ** 14, "smoke": 2 ** 14, "wind": 2 ** 16,
+                "boids": 2 ** 12, "liquid": 2 ** 12, "flame": None}
+
+
+def backends_section(ctx, repeats, emit, rounds=3):
+    """Each scene's step and whole frame (step, draws, readback) on desktop GL (``ctx``) and on
+    OpenGL ES, in one process: ``rounds`` rounds that alternate the two, each the median of
+    ``repeats``; the ratio is ES time / GL time, the median over the rounds."""
+    from es2particles.frame.settings import FrameSettings
+    from es2particles.run import Run
+
+    es = open_context(backend="gles")
+    emit(f"desktop: {ctx.caps.version}; ES: {es.caps.version}; 256x256 pictures; ES time / GL "
+         f"time, the median of {rounds} alternating rounds of {repeats}")
+    emit()
+    emit("| scene | N | GL step ms | ES step ms | ES/GL | GL frame ms | ES frame ms | ES/GL |")
+    emit("|---|---|---|---|---|---|---|---|")
+    try:
+        for name, count in BACKEND_RUNS.items():
+            settings = FrameSettings(size=(256, 256), **({"particles": count} if count else {}))
+            pipelines = {}
+            for backend, context in (("gl", ctx), ("gles", es)):
+                context.make_current()
+                pipelines[backend] = Run(name, settings=settings).pipeline(context)[1]
+            times = {(backend, part): [] for backend in pipelines for part in ("step", "frame")}
+            for _ in range(rounds):
+                for backend, p in pipelines.items():
+                    p.ctx.make_current()
+                    times[backend, "step"].append(timed(lambda: p.step(1), repeats,
+                                                        p.ctx.finish)[0])
+                    times[backend, "frame"].append(timed(lambda: (p.step(1), p.render(),
+                                                                  p.image()), repeats)[0])
+            for p in pipelines.values():
+                p.ctx.make_current()
+                p.release()
+            med = {key: float(np.median(value)) for key, value in times.items()}
+            emit(f"| {name} | {count or '-'} | {med['gl', 'step'] * 1e3:.1f} | "
+                 f"{med['gles', 'step'] * 1e3:.1f} | "
+                 f"{np.median(np.divide(times['gles', 'step'], times['gl', 'step'])):.2f} | "
+                 f"{med['gl', 'frame'] * 1e3:.1f} | {med['gles', 'frame'] * 1e3:.1f} | "
+                 f"{np.median(np.divide(times['gles', 'frame'], times['gl', 'frame'])):.2f} |")
+    finally:
+        es.release()
+        ctx.make_current()
+
+
 def fmt_ms(t):
     return "-" if t is None else f"{t[0] * 1e3:.1f}"
 
@@ -1054,6 +1103,9 @@ def main(argv=None):
             emit()
             if scene == "fountain":
                 fountain_section(ctx, sizes, args.repeats, emit)
+                continue
+            if scene == "backends":
+                backends_section(ctx, args.repeats, emit)
                 continue
             if scene == "accumulate":
                 accumulation_section(ctx, emit, args.quick)

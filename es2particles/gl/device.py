@@ -352,8 +352,30 @@ class ProgramError(Exception):
 
 # --- the recording device ---------------------------------------------------------------------
 
+class ModernglLike:
+    """The few moderngl-like members the package reads from a device's objects (``size`` and
+    ``device`` their own): the recording device's handles and the ES device's have them."""
+
+    @property
+    def width(self):
+        return self.size[0]
+
+    @property
+    def height(self):
+        return self.size[1]
+
+    def read(self):
+        return self.device.read(self)
+
+    def write(self, data):
+        self.device.write(self, data)
+
+    def release(self):
+        self.device.release(self)
+
+
 @dataclass(eq=False)
-class Handle:
+class Handle(ModernglLike):
     """An object the recording device made: its kind, number and what it was made with. Textures
     keep what was written into them, so an upload reads back; a texture never written reads as
     zeros."""
@@ -371,23 +393,6 @@ class Handle:
         size = f" {self.size[0]}x{self.size[1]}" if self.size else ""
         return f"<{self.kind} {self.number}{size}>"
 
-    # The few moderngl-like members the package reads from its objects.
-    @property
-    def width(self):
-        return self.size[0]
-
-    @property
-    def height(self):
-        return self.size[1]
-
-    def read(self):
-        return self.device.read(self)
-
-    def write(self, data):
-        self.device.write(self, data)
-
-    def release(self):
-        self.device.release(self)
 
 
 @dataclass(frozen=True)

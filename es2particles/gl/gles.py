@@ -23,7 +23,8 @@ import numpy as np
 
 from ..errors import CapabilityError, ContextError
 from ..io.signals import signals_held
-from .device import BLEND_FUNCTIONS, PRECISIONS, ActiveUniform, ProgramError
+from .device import (BLEND_FUNCTIONS, PRECISIONS, ActiveUniform, ModernglLike,
+                     ProgramError)
 
 # -- enums (the ES 2.0 headers' values) ---------------------------------------------------------
 EGL_NONE, EGL_EXTENSIONS, EGL_RENDERABLE_TYPE = 0x3038, 0x3055, 0x3040
@@ -149,10 +150,9 @@ def _load(names, what):
                        "'apt-get install libegl1 libgles2 libegl-mesa0'")
 
 
-class Handle:
+class Handle(ModernglLike):
     """A GL object of the ES device: its kind (as the recording device names them), its GL name,
-    and what the device keeps of it; with the few moderngl-like members the package reads from
-    its objects (the recording device's handles have them too)."""
+    and what the device keeps of it."""
 
     def __init__(self, device, kind, name, **details):
         self.device, self.kind, self.name = device, kind, name
@@ -160,23 +160,6 @@ class Handle:
 
     def __repr__(self):
         return f"<GLES {self.kind} {self.name}>"
-
-    @property
-    def width(self):
-        return self.size[0]
-
-    @property
-    def height(self):
-        return self.size[1]
-
-    def read(self):
-        return self.device.read(self)
-
-    def write(self, data):
-        self.device.write(self, data)
-
-    def release(self):
-        self.device.release(self)
 
 
 # a moderngl-style vertex format item the device reads: "2f" or "2f4" (floats), "4f1" (normalised

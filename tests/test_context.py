@@ -279,3 +279,22 @@ def test_without_fragment_highp_a_sort_order_is_refused_in_one_line():
         plan_frame(Boids(), FrameSettings(particles=1024, size=(32, 32), format="rgba16f"), caps)
     plan_frame(Boids(), FrameSettings(particles=1024, size=(32, 32), format="rgba16f"),
                Capabilities.assumed())  # where fragment shaders have highp it plans
+
+
+def test_sprites_are_clamped_to_the_probed_point_sizes_not_the_reported_ones():
+    """NVIDIA's ES context reports point sizes 1..10 and draws 400 px points: the sprites' and
+    the shadow map's sizes carry the probed top to their shaders' clamp; a probe that saw less
+    than the report, or none, leaves the report."""
+    from es2particles.frame.plan import frame_value
+    from es2particles.gl.context import Capabilities
+    from es2particles.render.camera import Camera
+
+    nvidia_es = Capabilities.assumed(point_size_range=(1.0, 10.0), probe_point_size=lambda: 4096)
+    assert nvidia_es.drawn_point_size_range == (1.0, 4096.0)
+    camera = Camera(eye=(0.0, 1.0, 5.0), target=(0.0, 1.0, 0.0))
+    for spec in (("sprite_size", 24.0, 0.0), ("jogl_sprite_size", 24.0, 0.0, 0.0, 0.0, 5.0),
+                 ("light_size", 1.0, 1.0, 0.0, 256)):
+        assert frame_value(spec, camera, caps=nvidia_es)[-2:] == (1.0, 4096.0), spec
+    assert Capabilities.assumed(point_size_range=(1.0, 255.0),
+                                probe_point_size=lambda: 64).drawn_point_size_range == (1.0, 255.0)
+    assert Capabilities.assumed().drawn_point_size_range == (1.0, 255.0)

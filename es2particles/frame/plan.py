@@ -79,18 +79,18 @@ def frame_value(spec, camera=None, step=0, caps=None, motion=None, aspect=1.0):
     if name == "motion":
         return (motion or motion_values(None, 0))[args[0]]
     if name == "sprite_size":
-        lo, hi = caps.point_size_range
+        lo, hi = caps.drawn_point_size_range
         pixels, spread = args
         return (float(pixels), float(spread), float(lo), float(hi))
     if camera is None:
         raise ParameterError(f"frame value {name!r} needs a camera: this scene has none")
     if name == "jogl_sprite_size":  # the JOGL seed: size over the squared xz distance fraction
-        lo, hi = caps.point_size_range
+        lo, hi = caps.drawn_point_size_range
         pixels, spread, ax, az, d0 = args
         d2 = (camera.eye[0] - ax) ** 2 + (camera.eye[2] - az) ** 2
         return (float(pixels * d0 * d0 / max(d2, 1e-12)), float(spread), float(lo), float(hi))
     if name == "light_size":
-        lo, hi = caps.point_size_range
+        lo, hi = caps.drawn_point_size_range
         per_focal, light_focal, spread, height = args
         world = per_focal / camera.focal_pixels(height)
         return (float(world * light_focal), float(spread), float(lo), float(hi))

@@ -59,6 +59,7 @@ class Capabilities:
     probe_store_rule: object = field(default=None, repr=False, compare=False)
     probe_multiply_add: object = field(default=None, repr=False, compare=False)
     probe_precision: object = field(default=None, repr=False, compare=False)
+    probe_point_size: object = field(default=None, repr=False, compare=False)
 
     @classmethod
     def assumed(cls, **changes):
@@ -103,6 +104,18 @@ class Capabilities:
         if not hasattr(self, "_store_rule"):
             self._store_rule = self.probe_store_rule() if self.probe_store_rule else "unknown"
         return self._store_rule
+
+    @property
+    def drawn_point_size_range(self):
+        """The point sizes the driver draws, which sprites and points are clamped to: its
+        reported range (``point_size_range``), the top raised to the widest point a probe saw it
+        draw where that is wider (NVIDIA's ES context reports 1..10 and draws 4096): probed the
+        first time it is asked for, then kept."""
+        if not hasattr(self, "_drawn_point_size_range"):
+            lo, hi = self.point_size_range
+            seen = self.probe_point_size() if self.probe_point_size else 0
+            self._drawn_point_size_range = (float(lo), max(float(hi), float(seen)))
+        return self._drawn_point_size_range
 
     @property
     def multiply_add(self):
@@ -163,7 +176,8 @@ class Capabilities:
                 ("vertex texture image units", self.max_vertex_texture_units),
                 ("particles drawn by", "vertex texture fetch" if self.max_vertex_texture_units
                  else "reading the state back each frame (no vertex texture units)"),
-                ("point size range", "%g..%g" % tuple(self.point_size_range))]
+                ("point size range (reported)", "%g..%g" % tuple(self.point_size_range)),
+                ("point sizes drawn (probed)", "%g..%g" % self.drawn_point_size_range)]
         for name in TEXTURE_FORMATS:
             rows.append((f"{name} render target / additive blend",
                          f"{_yes(self.renderable.get(name))} / {_yes(self.blendable.get(name))}"))
@@ -189,7 +203,8 @@ class Capabilities:
         out = {label: value for label, value in self.lines()
                if "precision" not in label and "render target" not in label
                and label not in ARTICLE_EXTENSIONS}
-        out["point size range"] = [float(v) for v in self.point_size_range]
+        out["point size range (reported)"] = [float(v) for v in self.point_size_range]
+        out["point sizes drawn (probed)"] = list(self.drawn_point_size_range)
         out["formats"] = {name: {"render target": bool(self.renderable.get(name)),
                                  "additive blend": bool(self.blendable.get(name))}
                           for name in TEXTURE_FORMATS}

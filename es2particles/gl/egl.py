@@ -145,6 +145,7 @@ def probe_capabilities(ctx):
         probe_store_rule=lambda: _probe_store_rule(ctx),
         probe_multiply_add=lambda: _probe_multiply_add(ctx),
         probe_precision=ctx.device.shader_precision,
+        probe_point_size=lambda: _probe_point_size(ctx),
     )
 
     def probe_format(fmt):
@@ -191,6 +192,34 @@ def _probe_format(ctx, fmt):
     if fmt == "rgba8":
         return bool(once[0] == 64), bool(twice[0] == 128)
     return bool(abs(once[0] - 0.25) < 1e-3), bool(abs(twice[0] - 0.5) < 1e-3)
+
+
+POINT_PROBE_WIDTH = 4096  # the widest point the probe can see: sprites beyond it are not asked for
+
+
+def _probe_point_size(ctx):
+    """The width in pixels of the widest point the driver draws, up to a row of
+    POINT_PROBE_WIDTH texels: one point asked for as wide as the row, at its centre, and its lit
+    texels counted. Drivers may draw wider than their reported range: NVIDIA's ES context
+    reports 1..10 and its desktop GL 1..189.875 (POINT_SIZE_RANGE), and both drew 400."""
+    width = min(POINT_PROBE_WIDTH, ctx.caps.max_texture_size)
+    group = ctx.group()
+    try:
+        tex = group.texture((width, 1), "rgba8")
+        fbo = group.framebuffer(tex)
+        ctx.clear(fbo, (0, 0, 0, 0))
+        centre = group.buffer(np.zeros(2, dtype="f4").tobytes())
+        command = DrawCommand(group, "point size probe", "lib/constant.frag",
+                              vertex="lib/point_probe.vert",
+                              vertices=[(centre, "2f", "a_position")], primitive="points",
+                              state=DrawState(point_size=True))
+        command.set("u_colour", (1.0, 1.0, 1.0, 1.0))
+        command.set("u_size", float(width))
+        command.draw(fbo, {})
+        lit = np.frombuffer(ctx.read(tex), dtype=np.uint8).reshape(-1, 4)[:, 0] > 127
+        return int(lit.sum())
+    finally:
+        group.release()
 
 
 def _probe_store_rule(ctx):

@@ -129,7 +129,7 @@ class Density(Rendering):
 
         caps, layout, size = b.caps, b.layout, b.size
         fetch = vertex_fetch(b)
-        lo, hi = caps.point_size_range
+        lo, hi = caps.drawn_point_size_range
         point_size = check_range("point_size", setting(
             "point_size", b.setting("point_size")), lo, hi)
         intensity = setting("intensity", b.setting("intensity"))

@@ -415,7 +415,7 @@ class Sprites(Rendering):
 
         caps, layout, fmt = b.caps, b.layout, b.format
         quantities = self.role_quantities(b.graph_plan)
-        lo, hi = caps.point_size_range
+        lo, hi = caps.drawn_point_size_range
         point_size = setting("point_size", b.setting("point_size"))
         fade = check_range("fade", self.fade, 0.0, hi)
         # ES 2.0 promises no vertex texture units at all; each part of a read quantity, the

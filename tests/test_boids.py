@@ -99,16 +99,18 @@ def test_random_headings_order_into_flocks(gl):
 
 @pytest.mark.slow
 def test_3d_random_headings_order_into_flocks(gl):
-    """In 3D from random headings over the sphere (order parameter ~0): 2048 boids at the 3D
-    default's density (a cube of 0.5) order above 0.15 in 400 steps (measured 0.23 on
-    llvmpipe: 0.02, 0.05, 0.04, 0.23, 0.23 every 100 steps)."""
+    """In 3D from random headings over the sphere (order parameter about 1 / sqrt(2048) =
+    0.022): 2048 boids at the 3D default's density (a cube of 0.5) order above 0.3 in 600
+    steps. The order comes in bursts, chaotic in the arithmetic: seeds 1, 2 and 3 measured
+    0.23, 0.16, 0.13 at 400 steps and 0.61, 0.48, 0.50 at 600 on llvmpipe; 0.13, 0.13, 0.14
+    and 0.45, 0.51, 0.39 on NVIDIA's driver (which fuses a * b + c)."""
     scene = Boids(dimensions=3, box=(0.5, 0.5, 0.5))
     with Simulation(gl, scene.graph(gl.caps), 2048) as sim:
         scene.initialise(sim, np.random.default_rng(1))
         first = order_parameter(sim.download("velocity"))
-        sim.run(400)
+        sim.run(600)
         last = order_parameter(sim.download("velocity"))
-    assert first < 0.06 and last > 0.15, (first, last)
+    assert first < 0.06 and last > 0.3, (first, last)
 
 
 @pytest.mark.parametrize("given, words", [

@@ -170,16 +170,22 @@ def test_a_point_centred_outside_the_target_is_drawn_in_part_by_es_only(es):
 @pytest.mark.slow
 @pytest.mark.parametrize("scene", sorted(SCENES))
 def test_every_scene_draws_the_same_bytes_on_es_as_on_desktop_gl(scene, tmp_path, es):
-    """Each scene's picture from `run --backend gles` is `run --backend gl`'s, byte for byte:
-    the same passes, draws and formats, through the other API."""
+    """Each scene's picture from `run --backend gles` is `run --backend gl`'s, byte for byte
+    where one compiler stands behind both APIs (Mesa's): the same passes, draws and formats,
+    through the other API. NVIDIA's driver compiles the two apart: there its flame differed by
+    a code in 3 of 6144 pixels (the others byte for byte), so elsewhere a code in 1 pixel of
+    1000."""
     pictures = {}
     for backend in ("gl", "gles"):
         out = tmp_path / f"{backend}.png"
         assert main(["run", scene, *SCENES[scene], "--size", "96x64", "--backend", backend,
                      "--out", str(out)]) == 0
-        pictures[backend] = read_png(out)
-    differ = np.any(pictures["gl"] != pictures["gles"], axis=-1)
-    assert not differ.any(), f"{differ.sum()} pixels differ"
+        pictures[backend] = read_png(out).astype(int)
+    apart = np.abs(pictures["gl"] - pictures["gles"]).max(axis=-1)
+    if "Mesa" in es.caps.version:
+        assert not apart.any(), f"{np.count_nonzero(apart)} pixels differ"
+    else:
+        assert apart.max() <= 1 and np.mean(apart > 0) <= 1e-3, (apart.max(), apart.sum())
 
 
 def test_a_run_file_keeps_the_backend_chosen(tmp_path, capsys):

@@ -11,6 +11,7 @@ import pytest
 
 from PIL import Image
 
+from conftest import needs
 from bounds import (DIVISION_ULPS, EXP_ULPS, HASH_ERROR, NORMALIZE, TRIG_ERROR, U, codec_error,
                     push_out_rescale, push_out_work)
 from es2particles.gl import astc
@@ -127,7 +128,7 @@ def test_mesh_field_matches_the_sphere_it_approximates():
     distance 0.49 voxel short on average, 1.2 at worst, which these bounds fail). Beyond the
     band, the mask's distance: within a voxel. A thin open shell (a dome) is solid where its
     surface is."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     mesh = load_mesh(DATA / "icosphere.obj", centre=(0.0, 0.0, 0.0))
     field = VoxelField([mesh], 40)
     q = field.centres().reshape(-1, 3)
@@ -160,6 +161,8 @@ def test_a_box_mesh_is_the_box_near_its_surface():
     (float64, in the box's own axes): exact to rounding within NEAR_VOXELS of the surface, at
     faces, edges and corners, inside and out; the sign from the pseudo-normals, not the mask."""
     from es2particles.fields.field3d import NEAR_VOXELS, TriangleMesh
+
+    needs("trimesh", "mesh")  # TriangleMesh subdivides with it
 
     half = np.array([0.8, 0.5, 0.3])
     signs = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
@@ -712,7 +715,7 @@ def test_a_mesh_of_the_sphere_behaves_as_the_sphere(gl, tmp_path):
     0.29/0.26. Through the voxel mask alone the tests' coarser icosphere (320 facets) held 9,120
     on it, 2,281 on top, 11% at rest and a median of 0.06 m/s; with its triangles, 6,234, 978,
     0.4% and 0.62 m/s, the rest its facets' (the finer mesh is the sphere)."""
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs("trimesh", "mesh")
     mesh = tmp_path / "icosphere4.obj"
     trimesh.creation.icosphere(subdivisions=4, radius=1.0).export(mesh)
     runs = {name: [_on_the_sphere(gl, shape, seed) for seed in (1, 2)]
@@ -730,7 +733,7 @@ def test_a_mesh_of_the_sphere_behaves_as_the_sphere(gl, tmp_path):
 def test_thin_shell_does_not_leak(gl):
     """An open dome (a mesh one voxel thick in the field) under the stream: no particle gets from
     outside the shell to inside its cavity within a step."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     scene = Collision3D(shape=str(DATA / "dome.obj"), jitter=0.5, field_resolution=40)
     sim = Simulation(gl, scene.graph(), 4096, fmt="rgba8", rounding="dither")
     centre = np.array([0.0, 0.5, 0.0])  # the dome's sphere: radius 1, rim at y = 0.5
@@ -759,7 +762,7 @@ def test_throws_at_a_one_voxel_shell_stay_out_by_the_side_of_entry(gl):
     cavity; the side-of-entry rule turns such a particle back the way it came. 1 throw in 16384
     got through here (the field is irregular at some of the mesh's facets); without the rule, 59.
     The bound: 1 in 1000."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     p = Collision3DParams(gravity=(0.0, 0.0, 0.0), jitter=0.0, viscosity=0.0, bounce=1.0,
                           lifetime=(400.0, 400.0))
     scene = Collision3D(p.changed(shape=str(DATA / "dome.obj"), field_resolution=40))

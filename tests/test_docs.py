@@ -26,6 +26,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import needs
+
 ROOT = Path(__file__).resolve().parent.parent
 FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```$", re.M | re.S)
 KINDS = ("python", "sh", "glsl", "toml", "text")
@@ -111,10 +113,19 @@ def carry_out(page, folder):
     return printed
 
 
+# What a page's blocks need beyond the package's own dependencies, by a sign in the page: the
+# extra's module, and the extra.
+PAGE_EXTRAS = {".mp4": ("imageio_ffmpeg", "video"), "LiveWidget": ("jupyter_rfb", "notebook")}
+
+
 @pytest.mark.gl
 @pytest.mark.slow
 @pytest.mark.parametrize("page", PAGES, ids=IDS)
 def test_every_block_runs(page, tmp_path):
+    text = page.read_text()
+    for sign, (module, extra) in PAGE_EXTRAS.items():
+        if sign in text:
+            needs(module, extra)
     carry_out(page, tmp_path)
 
 

@@ -7,6 +7,7 @@ about the target, rotations about the vertical, a ray through a pixel); pictures
 what ``es2particles run`` writes for the same arguments."""
 
 import math
+import shutil
 import subprocess
 import sys
 import time
@@ -15,7 +16,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from live_display import Display, Viewer, leftovers, printed
+from conftest import missing, needs
+from live_display import TOOLS, Display, Viewer, leftovers, printed
 
 pytestmark = [pytest.mark.gl, pytest.mark.slow]
 
@@ -25,6 +27,9 @@ DEJONG = ["dejong", "--particles", "16384", "--size", "256x256"]
 
 @pytest.fixture(scope="module")
 def display():
+    lacking = [tool for tool in TOOLS if shutil.which(tool) is None]
+    if lacking:
+        missing(f"the live tests need {', '.join(lacking)} (sh setup.sh test installs them)")
     screen = Display()
     yield screen
     screen.close()
@@ -233,8 +238,9 @@ def test_the_notebook_widget_draws_the_scene_and_orbits_with_the_mouse(tmp_path)
     """A notebook run headless on a real kernel: the widget shows itself as a widget view, its
     first frame is the picture ``run`` writes, and pointer events dragged 60 pixels across it
     give a frame from the orbited camera."""
-    import nbclient
-    import nbformat
+    nbclient = needs("nbclient", "test")
+    nbformat = needs("nbformat", "test")
+    needs("jupyter_rfb", "notebook")
 
     cells = [
         "import numpy as np\n"

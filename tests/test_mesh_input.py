@@ -11,6 +11,8 @@ import sys
 import numpy as np
 import pytest
 
+from conftest import needs
+
 from es2particles.cli import main
 
 SMALL = ["--particles", "1024", "--size", "64x64"]
@@ -92,7 +94,7 @@ def test_a_faulty_mesh_file_is_one_line_naming_it(tmp_path, capsys, monkeypatch,
     """Before, the nan tetrahedron ran as the one triangle trimesh kept, the collinear mesh ran,
     1e300 ran after a numpy warning line, and the OBJ index said numpy's 'index 8 is out of
     bounds for axis 0 with size 4'."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     path = tmp_path / name
     if isinstance(content, bytes):
         path.write_bytes(content)
@@ -109,7 +111,7 @@ def test_bytes_that_are_no_mesh_are_not_sent_to_the_install(tmp_path, capsys, mo
                                                             kind):
     """Without charset_normalizer (trimesh wants it only to guess a text's encoding), random
     bytes said "No module named 'charset_normalizer'": the file is at fault, not the install."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     monkeypatch.setitem(sys.modules, "charset_normalizer", None)  # its import fails
     path = tmp_path / name
     path.write_bytes(noise())
@@ -169,7 +171,7 @@ def test_300_large_triangles_at_resolution_256_are_refused_fast(tmp_path):
     takes (3.2 s with 12 workers on a loaded 16-core machine, so the bound is 30 s). In a process of its own with 4 GiB of
     address space, so that a regression is a MemoryError, not the machine's OOM killer. The
     refusal comes before the warning of the field's size: one line."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     import resource
 
     path = tmp_path / "large.stl"
@@ -199,7 +201,7 @@ def test_a_run_beyond_the_memory_available_is_refused(tmp_path, capsys, monkeypa
     """The largest run of triangles is held at once: a tetrahedron across the field at 128 is
     ~0.3 million points a face, ~1.3 GB with its margin; with 0.2 GB available it is refused, and
     the line says the resolution that fits."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     from es2particles.fields import field3d
 
     monkeypatch.setattr(field3d, "free_memory", lambda: 0.2e9)
@@ -215,7 +217,7 @@ def test_the_estimate_bounds_the_points_made():
     """TriangleMesh.surface_points against trimesh's subdivision, one triangle at a time (random
     ones, slivers and needles among them): within the measured 0.19 to 2.75 times, so that
     ESTIMATE_MARGIN (3) covers the memory of a run."""
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs("trimesh", "mesh")
     from es2particles.fields.field3d import ESTIMATE_MARGIN, TriangleMesh
 
     rng = np.random.default_rng(31)
@@ -240,7 +242,7 @@ def test_the_estimate_bounds_the_points_made():
 def test_runs_of_triangles_make_the_mask_the_whole_mesh_makes(tmp_path, monkeypatch, name):
     """The voxeliser subdivides a run of triangles at a time (here runs of a few triangles, so
     that there are many): the mask is the one trimesh's subdivision of the whole mesh gives."""
-    trimesh = pytest.importorskip("trimesh")
+    trimesh = needs("trimesh", "mesh")
     from scipy import ndimage
 
     from es2particles.fields import field3d
@@ -271,7 +273,7 @@ def test_runs_of_triangles_make_the_mask_the_whole_mesh_makes(tmp_path, monkeypa
 
 def test_a_good_mesh_is_read_as_it_was(tmp_path):
     """A closed tetrahedron: four triangles, closed, scaled to 2 across about (0, 1, 0)."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     from es2particles.fields.field3d import load_mesh
 
     path = tmp_path / "tetrahedron.obj"
@@ -284,7 +286,7 @@ def test_a_good_mesh_is_read_as_it_was(tmp_path):
 
 @pytest.mark.gl
 def test_a_good_mesh_still_runs(tmp_path, capsys):
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     path = tmp_path / "tetrahedron.obj"
     path.write_text(obj_text(TETRAHEDRON, TETRAHEDRON_FACES))
     out = tmp_path / "x.png"
@@ -300,7 +302,7 @@ def test_files_a_mesh_names_are_never_opened(tmp_path):
     read from its own bytes with no resolver: an mtllib naming a FIFO, a device or a file
     outside the mesh's folder is not opened, and the geometry loads (in a process of its own,
     with a time limit, so that a regression fails instead of hanging the tests)."""
-    pytest.importorskip("trimesh")
+    needs("trimesh", "mesh")
     fifo = tmp_path / "materials.mtl"
     os.mkfifo(fifo)
     mesh = tmp_path / "tetrahedron.obj"

@@ -6,8 +6,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-import trimesh
 
+from conftest import needs
 from es2particles import Simulation
 from es2particles.render.camera import Camera
 from es2particles.errors import ParameterError
@@ -105,6 +105,7 @@ def test_sphere_is_wound_outward_like_box_and_floor():
 
 @pytest.mark.parametrize("shape", ["icosahedron", "cube"])
 def test_from_triangles_has_unit_outward_normals(shape):
+    trimesh = needs("trimesh", "mesh")
     source = {"icosahedron": trimesh.creation.icosahedron(),
               "cube": trimesh.creation.box(extents=(1.0, 2.0, 0.5))}[shape]
     vertices, faces = np.array(source.vertices), np.array(source.faces)

@@ -101,6 +101,13 @@ def check_spiral_picture(path, steps):
     assert grey[outside].max() <= 16, f"{np.count_nonzero(grey[outside] > 16)} pixels outside lit"
 
 
+def with_path(folder):
+    """The environment with ``folder`` first on PYTHONPATH, what was there kept (where the
+    package runs from a checkout on PYTHONPATH, as on the GPU machine, not installed)."""
+    kept = os.environ.get("PYTHONPATH")
+    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(folder)] + ([kept] if kept else [])))
+
+
 def test_an_installed_plug_in_scene_is_listed_and_runs(tmp_path):
     wheel = build_wheel(tmp_path)
     target = tmp_path / "site"
@@ -108,7 +115,7 @@ def test_an_installed_plug_in_scene_is_listed_and_runs(tmp_path):
                               "--no-index", "--target", str(target), str(wheel)],
                              capture_output=True, text=True)
     assert install.returncode == 0, install.stderr
-    env = dict(os.environ, PYTHONPATH=str(target))
+    env = with_path(target)
     cli = [sys.executable, "-c", "import sys; from es2particles.cli import main; "
                                  "sys.exit(main(sys.argv[1:]))"]
     listed = subprocess.run(cli + ["run", "--help"], capture_output=True, text=True, env=env,
@@ -131,7 +138,7 @@ def test_a_broken_plug_in_is_named_and_left_out(tmp_path):
     dist.mkdir()
     (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: broken\nVersion: 1.0\n")
     (dist / "entry_points.txt").write_text("[es2particles.scenes]\nbroken = no_such_module:X\n")
-    env = dict(os.environ, PYTHONPATH=str(tmp_path))
+    env = with_path(tmp_path)
     result = subprocess.run([sys.executable, "-c", "from es2particles.scenes import "
                              "installed_scenes; print(sorted(installed_scenes()))"],
                             capture_output=True, text=True, env=env, cwd=tmp_path)

@@ -266,13 +266,8 @@ def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
     folder or a FIFO (never opened), a file trimesh cannot read as a mesh, vertices that are not
     finite numbers or beyond +-MAX_COORDINATE, face indices beyond its vertices, no triangles,
     and a mesh flat to a point or a line. The checks look at the file's data as read, before
-    trimesh's processing (which drops the faces at a nan vertex and merges vertices)."""
-    try:
-        import scipy  # noqa: F401
-        import trimesh
-    except ImportError:
-        raise ParameterError("mesh shapes need trimesh and scipy: pip install "
-                             "'es2particles[mesh]'") from None
+    trimesh's processing (which drops the faces at a nan vertex and merges vertices). The path's
+    faults come before a missing trimesh: they are the user's to fix either way."""
     from ..io.images import open_input
 
     check_range("mesh size", size, 1e-3, 1e3)
@@ -282,6 +277,12 @@ def load_mesh(path, centre=(0.0, 1.0, 0.0), size=2.0):
         raise ParameterError(f"{named}: mesh files are read as OBJ, STL or PLY, by their "
                              "extension (.obj .stl .ply)")
     with open_input(path, "--shape", named) as handle:
+        try:
+            import scipy  # noqa: F401
+            import trimesh
+        except ImportError:
+            raise ParameterError("mesh shapes need trimesh and scipy: pip install "
+                                 "'es2particles[mesh]'") from None
         scene = _read_mesh_scene(handle, kind, Path(path), named)
     parts = [g for g in scene.geometry.values() if isinstance(g, trimesh.Trimesh)]
     for part in scene.geometry.values():

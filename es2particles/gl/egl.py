@@ -201,7 +201,7 @@ def _probe_point_size(ctx):
     """The width in pixels of the widest point the driver draws, up to a row of
     POINT_PROBE_WIDTH texels: one point asked for as wide as the row, at its centre, and its lit
     texels counted. Drivers may draw wider than their reported range: NVIDIA's ES context
-    reports 1..10 and its desktop GL 1..189.875 (POINT_SIZE_RANGE), and both drew 400."""
+    reports 1..10 and its desktop GL 1..189.875 (POINT_SIZE_RANGE), and both draw 2048."""
     width = min(POINT_PROBE_WIDTH, ctx.caps.max_texture_size)
     group = ctx.group()
     try:

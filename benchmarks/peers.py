@@ -10,7 +10,7 @@ import io
 import numpy as np
 from PIL import Image
 
-from es2particles.render.ramps import load_ramp
+from es2particles.io.ramps import load_ramp
 from es2particles.scenes.dejong import ARTICLE_COEFFICIENTS
 from numpy_dejong import SIZE, NumpyDeJong, NumpyFrame  # noqa: F401 (the bench imports them)
 

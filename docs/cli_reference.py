@@ -29,7 +29,7 @@ COMMANDS = ("info", "plan", "run", "view", "export", "report")
 SCENE_COMMANDS = ("plan", "run", "view", "export")
 SCENE_DEFAULTS = set(Defaults.__dataclass_fields__)
 # An example of a refusal, produced by running it (nothing is written, no context is opened).
-REFUSED = ["run", "fountain", "--gradient", "ice", "--out", "fountain.png"]
+REFUSED = ["run", "fountain", "--exposure", "2", "--out", "fountain.png"]
 
 
 def subparsers(parser):

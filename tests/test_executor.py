@@ -249,13 +249,13 @@ def test_culling_walks_back_from_the_picture_and_says_what_it_left_out():
     plan = plan_frame(UnreadScene(), FrameSettings(particles=64, size=(16, 16)))
     assert "scratch" not in [s.name for s in plan.stages]
     assert "post stage scratch (nothing reads scratch)" in plan.left_out
-    assert "left out: bloom (switched off), post stage scratch (nothing reads scratch)" \
-        in str(plan)
+    assert ("gradient map (off: the picture as drawn), bloom (switched off), post stage "
+            "scratch (nothing reads scratch)") in str(plan)
 
 
 @pytest.mark.parametrize("scene, setting, option", [
-    (Fountain(), dict(gradient="ice"), "--gradient"),
     (Fountain(), dict(exposure=2.0), "--exposure"),
+    (Fountain(), dict(intensity=2.0), "--intensity"),
     (Smoke(), dict(intensity=2.0), "--intensity"),
     (Collision3D(field_resolution=16), dict(accumulate=2), "--accumulate"),
     (Smoke(), dict(exposure=2.0), "--exposure"),

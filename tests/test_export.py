@@ -463,8 +463,8 @@ def cli(*args, cwd):
 
 
 @pytest.mark.parametrize("args, out, message", [
-    (["export", "fountain", "--gradient", "ice"], "p.html",
-     "--gradient: scene 'fountain' does not use this setting (it draws 3D sprites"),
+    (["export", "fountain", "--exposure", "2"], "p.html",
+     "--exposure: scene 'fountain' does not use this setting (it draws 3D sprites"),
     (["export", "smoke", "--opacity", "2"], "p.html", "--opacity must be in [0, 1], got 2"),
     (["export", "dejong", "--format", "rgba16f"], "p.html", "--format rgba16f"),
     (["export", "dejong"], "p.htm", "--out must end in .html"),
@@ -686,6 +686,22 @@ def test_a_sprite_page_blooms_as_egl_does(gl, browser, tmp_path):
     page = web_page(browser, tmp_path, scene, state, steps, bloom=bloom)
     try:
         compare_images(image, page.image(SIZE_3D), "fountain, bloomed", folder=tmp_path)
+    finally:
+        page.close()
+
+
+def test_a_sprite_page_takes_the_gradient_map_as_egl_does(gl, browser, tmp_path):
+    """The gradient map over the sprites' picture (off by default there), then bloom: the post
+    chain in its order, on the page and on EGL."""
+    scene, bloom = Fountain(), Bloom(threshold=0.3, radius=2.0, intensity=1.5)
+    steps = scene.defaults.steps
+    state, image, _ = egl_state(gl, scene, steps, gradient="ice", bloom=bloom)
+    _, plain, _ = egl_state(gl, scene, steps, bloom=bloom)
+    assert np.abs(image.astype(int) - plain).mean() > 2, "the ramp should recolour the picture"
+    page = web_page(browser, tmp_path, scene, state, steps, gradient="ice", bloom=bloom)
+    try:
+        compare_images(image, page.image(SIZE_3D), "fountain, ice ramp, bloomed",
+                       folder=tmp_path)
     finally:
         page.close()
 

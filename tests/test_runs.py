@@ -18,11 +18,11 @@ RUN_OPTIONS = {"--out", "--config", "--save-config", "--frames", "--steps-per-fr
                "--worker-timeout", "--backend"}
 # The frame settings a 3D sprite scene draws with, and the ones only a density picture has.
 # Bloom is over every picture: switched off where the density has it on by default, on where
-# the rendering leaves it off.
+# the rendering leaves it off. The gradient map too: a density's tone map colours along it, any
+# other picture is recoloured by its brightness where a ramp is given.
 COMMON = {"--particles", "--size", "--format", "--rounding", "--steps", "--seed", "--point-size",
-          "--trails", "--bloom-threshold", "--bloom-radius", "--bloom-intensity"}
-DENSITY_ONLY = {"--gradient", "--intensity", "--exposure", "--accumulate", "--no-bloom",
-                "--vertex-fetch"}
+          "--gradient", "--trails", "--bloom-threshold", "--bloom-radius", "--bloom-intensity"}
+DENSITY_ONLY = {"--intensity", "--exposure", "--accumulate", "--no-bloom", "--vertex-fetch"}
 
 
 def help_of(capsys, *argv):
@@ -89,7 +89,7 @@ def test_the_fountain_s_help_is_its_own(capsys):
 
 
 @pytest.mark.parametrize("argv, named", [
-    (["run", "fountain", "--gradient", "ice"], "--gradient"),
+    (["run", "fountain", "--intensity", "2"], "--intensity"),
     (["run", "smoke", "--accumulate", "4"], "--accumulate"),
     (["run", "collision3d", "--exposure", "2"], "--exposure"),
     (["run", "fountain", "--bloom", "--no-bloom"], "--no-bloom switches bloom off: leave out "
@@ -169,8 +169,8 @@ BAD_FILES = {
                      "run.toml: [parameters] drag must be in [0, 100], got 1e+09"),
     "not a choice": ('scene = "fountain"\n[parameters]\nfloor = "up"\n',
                      "run.toml: [parameters] floor must be one of kill, bounce, got 'up'"),
-    "unused setting": ('scene = "fountain"\n[settings]\ngradient = "ice"\n',
-                       "--gradient: scene 'fountain' does not use this setting"),
+    "unused setting": ('scene = "fountain"\n[settings]\nexposure = 2.0\n',
+                       "--exposure: scene 'fountain' does not use this setting"),
     "bad setting": ('scene = "dejong"\n[settings]\nparticles = -4\n',
                     "[settings] particles must be in [1, inf], got -4"),
     "unknown scene": ('scene = "fountan"\n', "no scene is registered as 'fountan'"),

@@ -342,7 +342,7 @@ def test_the_air_alone_is_drawn_as_its_speed(gl):
     ramp read LINEAR between its 256 entries: 8-bit weights move it by 2^-8 of a step between
     entries of a few codes)."""
     ndimage = pytest.importorskip("scipy.ndimage")
-    from es2particles.render.ramps import load_ramp
+    from es2particles.io.ramps import load_ramp
 
     scene = Wind(grid="48x32", box=(1.5, 1.0), obstacle="circle:0.5,0.5,0.15")
     size = (150, 100)
@@ -380,7 +380,7 @@ def test_particles_are_coloured_by_their_mean_speed(gl):
     state (point size 1: pixel floor((p - view) / view size * size)); the picture is the
     gradient map at their mean (second over first) times a brightness full from 4 times an even
     spread's density, on the log curve below it, written in the test (bloom off)."""
-    from es2particles.render.ramps import load_ramp
+    from es2particles.io.ramps import load_ramp
 
     scene = Wind(grid="32x32", obstacle="none")
     size, n = (64, 48), 3000

@@ -464,15 +464,16 @@ class Renderer:
         if missing:
             raise ParameterError(f"the renderer reads {', '.join(missing)}, which the "
                                  f"simulation does not hold (it holds {', '.join(sim.buffers)})")
-        # The simulation is made: of the frame settings, a renderer takes the size, bloom and
-        # those its rendering declares (the particles, format, steps and seed are the
-        # simulation's; trails need an animation's frames).
-        uses = {"size", "bloom", *rendering.settings}
+        # The simulation is made: of the frame settings, a renderer takes the size, the post
+        # chain's gradient map and bloom, and those its rendering declares (the particles,
+        # format, steps and seed are the simulation's; trails need an animation's frames).
+        uses = {"size", "gradient", "bloom", *rendering.settings}
         unused = [n for n in settings.given() if n not in uses]
         if unused:
             raise ParameterError(f"{', '.join(unused)}: a renderer over a simulation does not "
                                  f"use {'it' if len(unused) == 1 else 'them'} (it takes size, "
-                                 f"bloom and {', '.join(rendering.settings) or 'nothing else'}: "
+                                 f"gradient, bloom and "
+                                 f"{', '.join(rendering.settings) or 'nothing else'}: "
                                  f"{rendering.kind})")
         rendering.check_settings({n: getattr(settings, n) for n in settings.given()
                                   if n in rendering.settings})

@@ -566,11 +566,16 @@ def plan_frame(scene, settings=FrameSettings(), caps=None):
 
 def plan_picture(b, rendering, defaults):
     """The stages of ``rendering``'s picture added to plan builder ``b``, then the post chain
-    every rendering's picture takes (bloom, where the run or the rendering's default asks for it);
-    returns the name of the picture then."""
+    every rendering's picture takes: the gradient map, where the rendering maps none of its own
+    (``own_gradient``) and the run asks for a ramp, and bloom, where the run or the rendering's
+    default asks for it; returns the name of the picture then."""
     from .bloom import plan_bloom
+    from .gradient import plan_gradient_map
 
-    return plan_bloom(b, rendering.plan(b, defaults), b.setting("bloom"))
+    picture = rendering.plan(b, defaults)
+    if not rendering.own_gradient:
+        picture = plan_gradient_map(b, picture, b.setting("gradient"))
+    return plan_bloom(b, picture, b.setting("bloom"))
 
 
 def _cull(stages, present):
@@ -593,6 +598,9 @@ class Rendering:
 
     reads = ("position",)
     settings = ()  # the frame settings it uses beside COMMON_SETTINGS
+    # True where its own stages colour the picture along the gradient map (a density's tone
+    # map); else the post chain's gradient map recolours the picture where a ramp is asked for
+    own_gradient = False
     # Bloom over its picture: where a run does not say (None: off), and the parts a run that
     # switches it on without giving them takes. Over lit meshes a threshold of 0.2 (the
     # density's) blooms the floor and blurs its checks; at 0.6 the sprites' cores glow.

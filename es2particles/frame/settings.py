@@ -54,7 +54,7 @@ class FrameSettings:
     framework's; one given that the scene's frame does not use (a gradient map for 3D sprites) is
     an error naming it, never silently ignored.
 
-    ``gradient``: a ramp (see ``render.ramps``) or None (grey); ``bloom``: a
+    ``gradient``: a ramp (see ``io.ramps``) or None (grey); ``bloom``: a
     :class:`Bloom` or None (off). ``share``: which share of a larger
     still this is (``cluster/shares.py``)."""
 
@@ -131,8 +131,9 @@ def check_rounding(rounding):
 
 
 # Settings every frame uses; a rendering declares the others it uses (``Rendering.settings``).
-# The post chain every rendering's picture takes (render/post.py), and trails after it.
-POST_SETTINGS = ("bloom", "trails")
+# The post chain every rendering's picture takes (a gradient map where the rendering makes none
+# of its own, bloom: frame/plan.py's plan_picture), and trails after it.
+POST_SETTINGS = ("gradient", "bloom", "trails")
 COMMON_SETTINGS = ("particles", "size", "format", "rounding", "steps", "seed") + POST_SETTINGS
 MAX_SIZE = 2 ** 16  # no context's textures are wider: the bound of a check made before one
 MAX_ACCUMULATE = 10 ** 6
@@ -171,8 +172,9 @@ SETTINGS = {d.name: d for d in (
              help="density each particle adds: brightens the tone-mapped picture"),
     _setting("exposure", 4.0, 1e-3, 1e3, help="tone curve brightness"),
     _setting("gradient", "inferno", text=True, metavar="RAMP",
-             help="gradient map: a ramp name (inferno, ice, viridis, gold, grey, spectral), "
-                  "colours '#000,#f80,#fff', a PNG path, or 'none' (grey)"),
+             help="gradient map, colouring the picture by its brightness: a ramp name (inferno, "
+                  "ice, viridis, gold, grey, spectral), colours '#000,#f80,#fff', a PNG path, or "
+                  "'none' (a density grey, any other picture as drawn)"),
     _setting("accumulate", 1, 1, MAX_ACCUMULATE, integer=True,
              help="samples in each image: this step's and the next K-1 steps' (a density sums "
                   "them, and reseeded attractors shift their grid for each; a flame averages "
@@ -382,6 +384,10 @@ def check_settings(settings, scene, rendering=None):
             parse_size(value, MAX_SIZE)
         elif name == "bloom":
             check_bloom(value)
+        elif name == "gradient" and value is not None:
+            from ..io.ramps import load_ramp
+
+            load_ramp(value)
         elif name == "trails" and parse_trails(value)[0] == "ribbons" and scene.stateless:
             raise ParameterError(f"--trails {value}: scene {scene.name!r} places its particles "
                                  "afresh each step, so their positions make no path; use "
@@ -402,10 +408,13 @@ def resolve(settings, defaults, name, rendering=None):
     (a :class:`FrameSettings`, or None), else the scene's own default (its ``defaults``, a
     :class:`Defaults`, where it has that field), else the framework's declaration's
     (:data:`SETTINGS`; bloom: the ``rendering``'s ``default_bloom``, on for the density's
-    tone-mapped picture and off for the others, whose look it would change)."""
+    tone-mapped picture and off for the others, whose look it would change; the gradient map:
+    the scene's where the rendering maps one of its own, a density's or a field's, else off)."""
     value = DEFAULT if settings is None else getattr(settings, name)
     if value is not DEFAULT:
         return value
+    if name == "gradient" and not getattr(rendering, "own_gradient", True):
+        return None  # a picture drawn in colour keeps them unless a ramp is asked for
     if defaults is not None and name in {f.name for f in fields(defaults)}:
         return getattr(defaults, name)
     if name == "bloom":

@@ -25,7 +25,7 @@ class Field(Rendering):
     top: float
     background: object = None
 
-    settings = ("gradient",)
+    own_gradient = True  # the magnitude is coloured along it
     has_camera = False
     kind = "it draws a grid quantity as an image"
 
@@ -38,12 +38,6 @@ class Field(Rendering):
     @property
     def reads(self):
         return (self.quantity,)
-
-    def check_settings(self, given):
-        from .ramps import load_ramp
-
-        if given.get("gradient") is not None:
-            load_ramp(given["gradient"])
 
     def plan(self, b, defaults):
         q = b.graph_plan.quantities[self.quantity]

@@ -112,7 +112,7 @@ class Flame(Rendering):
 
     settings = ("accumulate",)
     has_camera = True
-    kind = "it marches a flame through a volume: no point size, tone map or gradient map"
+    kind = "it marches a flame through a volume: no point size or tone map"
 
     def __post_init__(self):
         if self.source not in SOURCES:

@@ -75,7 +75,7 @@ class Metaballs(Rendering):
 
     reads = ("position",)
     settings = ("vertex_fetch",)
-    kind = "it draws the liquid as metaballs: no point size, tone map, gradient map or accumulation"
+    kind = "it draws the liquid as metaballs: no point size, tone map or accumulation"
 
     def __post_init__(self):
         x0, y0, x1, y1 = (float(v) for v in self.view)

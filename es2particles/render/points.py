@@ -86,7 +86,8 @@ class Density(Rendering):
     draw_slice: int = None
     hue: tuple = None
 
-    settings = ("point_size", "intensity", "exposure", "gradient", "accumulate", "vertex_fetch")
+    settings = ("point_size", "intensity", "exposure", "accumulate", "vertex_fetch")
+    own_gradient = True  # the tone map colours the density along it
     default_bloom = bloom_parts = Bloom()
     has_camera = False
     kind = "it draws 2D density points"
@@ -112,15 +113,6 @@ class Density(Rendering):
             raise ParameterError(f"view must have x1 > x0 and y1 > y0, got {self.view}")
         if self.draw_slice is not None:
             check_range("draw_slice", self.draw_slice, 1, integer=True)
-
-    def check_settings(self, given):
-        """The density's and its tone map's settings, each of its kind and in its range (the
-        point size against the context's range comes when the frame is planned)."""
-        from .ramps import load_ramp
-
-        for name, value in given.items():
-            if name == "gradient" and value is not None:
-                load_ramp(value)
 
     def plan(self, b, defaults):
         """Add the points stage (accumulated over the run's samples) and the tone map to plan

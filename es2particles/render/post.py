@@ -1,30 +1,24 @@
 """The density's post stage, as a stage of the frame plan: the tone map with its gradient map,
 which turns a density texture into a picture (a log curve of density, then a colour ramp,
-``ramps.py``, or grey). It is optional: switched off, it makes no texture and never runs, and
-the plan says it was left out. Bloom, which any rendering's picture takes, is the frame's
-(``frame/bloom.py``).
+``io/ramps.py``, or grey). It is optional: switched off, it makes no texture and never runs,
+and the plan says it was left out. Bloom and the gradient map over any other picture, which
+every rendering's picture takes, are the frame's (``frame/bloom.py``, ``frame/gradient.py``).
 """
 
 import numpy as np
 
 from ..frame.bloom import stage
+from ..frame.gradient import ramp_resource
 from ..frame.plan import Ref, Resource
 from ..frame.settings import setting
-from .ramps import load_ramp
 
 
 def colouring(b, gradient, background, what="the scene's objects, under the particles"):
     """The gradient map (a ramp, or None: grey) and the scene's background image as resources
     of plan builder ``b``: (defines, inputs) of a stage that colours with them (GRADIENT and
     u_ramp, BACKGROUND and u_background)."""
-    ramp = load_ramp(gradient) if gradient is not None else None  # bad ramps fail before GL
-    defines, inputs = {}, {}
-    if ramp is not None:
-        b.resource(Resource("ramp", "image", (256, 1), "rgba8", linear=True,
-                            data=np.asarray(ramp, np.uint8).reshape(1, 256, 4),
-                            what=f"gradient map {gradient!r}"))
-        defines["GRADIENT"], inputs["u_ramp"] = None, Ref("ramp")
-    else:
+    defines, inputs = ramp_resource(b, gradient)
+    if gradient is None:
         b.left_out.append("gradient map (switched off: grey)")
     if background is not None:
         bh, bw = background.shape[:2]
@@ -59,3 +53,4 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", background=
                  {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure}, inputs,
                  defines, f"log curve, exposure {exposure:g}, {ramp_words}"
                  + (", over the scene's objects" if background is not None else ""))
+

@@ -76,7 +76,7 @@ class Quads(Rendering):
 
     settings = ()
     has_camera = True
-    kind = "it draws 3D quads of a world size: no point size, tone map or gradient map"
+    kind = "it draws 3D quads of a world size: no point size or tone map"
 
     def __post_init__(self):
         check_range("quad half size", self.half_size, 1e-6, 1e3)

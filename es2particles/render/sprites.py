@@ -301,7 +301,7 @@ class Sprites(Rendering):
 
     settings = ("point_size", "vertex_fetch")
     has_camera = True
-    kind = "it draws 3D sprites: no tone map, gradient map or accumulation"
+    kind = "it draws 3D sprites: no tone map or accumulation"
 
     def __post_init__(self):
         if self.blend not in BLENDS:

@@ -7,6 +7,7 @@
 varying vec2 v_uv;
 #ifdef GRADIENT
 uniform sampler2D u_ramp;  // 256 x 1, linear filtering
+#include "lib/ramp.glsl"
 #endif
 #ifdef BACKGROUND
 uniform sampler2D u_background;  // the scene's objects
@@ -17,7 +18,7 @@ void main()
     vec2 point = mix(u_view.xy, u_view.zw, v_uv);
     float t = clamp(length(read_field_sample(point)) / u_top, 0.0, 1.0);
 #ifdef GRADIENT
-    vec3 colour = texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
+    vec3 colour = ramp_colour(u_ramp, t);
 #else
     vec3 colour = vec3(t);
 #endif

@@ -17,6 +17,7 @@ uniform float u_mean;      // particles / pixels: a particle of intensity i adds
 uniform float u_exposure;
 #ifdef GRADIENT
 uniform sampler2D u_ramp;  // 256 x 1, linear filtering
+#include "lib/ramp.glsl"
 #endif
 #ifdef BACKGROUND
 uniform sampler2D u_background;  // the scene's objects, drawn under the particles
@@ -50,9 +51,9 @@ void main()
     // full colour from HUE_HEADROOM times an even spread's density up: the hue is the picture
     float bright = clamp(log(1.0 + u_exposure * d / u_mean)
                          / log(1.0 + u_exposure * HUE_HEADROOM), 0.0, 1.0);
-    vec3 colour = bright * texture2D(u_ramp, vec2(mean * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
+    vec3 colour = bright * ramp_colour(u_ramp, mean);
 #elif defined(GRADIENT)
-    vec3 colour = texture2D(u_ramp, vec2(t * (255.0 / 256.0) + 0.5 / 256.0, 0.5)).rgb;
+    vec3 colour = ramp_colour(u_ramp, t);
 #else
     vec3 colour = vec3(t);
 #endif

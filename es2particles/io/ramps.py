@@ -1,6 +1,6 @@
 """Colour ramps for the gradient map: built-in ones, a list of colours, or a W x 1 image.
 
-A ramp is a (256, 4) uint8 array; ``post.py`` uploads it as a 256 x 1 texture.
+A ramp is a (256, 4) uint8 array; ``frame/gradient.py`` uploads it as a 256 x 1 texture.
 """
 
 import numpy as np
@@ -30,10 +30,10 @@ def load_ramp(spec):
         return _interpolate([[int(c[k:k + 2], 16) for k in (1, 3, 5)] for c in BUILTIN[spec]])
     from PIL import ImageColor
 
-    from ..io.images import file_fault
+    from .images import file_fault
 
     if spec.lower().endswith((".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")):
-        from ..io.images import read_image
+        from .images import read_image
 
         row = np.asarray(read_image(spec, "--gradient", "RGB"))[0].astype(np.float64)
         if len(row) < 2:

@@ -566,7 +566,7 @@ def run_of(args):
     from dataclasses import replace
 
     from .errors import ParameterError
-    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
+    from .frame.settings import BLOOM_PARTS, SETTINGS, typed_setting
     from .run import Run, read_run
 
     base = Run(args.scene)
@@ -576,13 +576,9 @@ def run_of(args):
             raise ParameterError(f"--config {args.config!r} is a run of {base.scene}, not "
                                  f"{args.scene}")
     typed = {name: getattr(args, name) for name in SETTINGS
-             if name not in BLOOM_PARTS and hasattr(args, name)}
-    declared = {**SETTINGS, "particles": particles_setting(args.scene_class)}
-    settings = {name: value if declared[name].text else declared[name].convert(
-                    value, declared[name].flag_name)
-                for name, value in typed.items() if value is not None}
-    if "gradient" in settings and settings["gradient"] == "none":
-        settings["gradient"] = None
+             if name not in BLOOM_PARTS and getattr(args, name, None) is not None}
+    settings = {name: typed_setting(name, value, SETTINGS[name].flag_name, args.scene_class)
+                for name, value in typed.items()}
     parts = {part: None if getattr(args, part, None) is None else SETTINGS[part].convert(
         getattr(args, part), SETTINGS[part].flag_name) for part in BLOOM_PARTS}
     if getattr(args, "no_bloom", None):

@@ -175,7 +175,7 @@ def settings_from_mapping(mapping, where, scene=None):
     class: the particle count's range is its own)."""
     from dataclasses import replace
 
-    from .frame.settings import BLOOM_PARTS, SETTINGS, particles_setting
+    from .frame.settings import BLOOM_PARTS, SETTINGS, typed_setting
     from .frame.plan import Rendering
 
     # the parts a table leaves out, and true, are the parts the scene's rendering blooms with
@@ -202,21 +202,9 @@ def settings_from_mapping(mapping, where, scene=None):
             else:
                 raise ParameterError(f"{where}: [settings] bloom must be a table "
                                      "{threshold, radius, intensity}, true or false")
-        elif name == "gradient":
-            if not isinstance(value, str):
-                raise ParameterError(f"{where}: [settings] gradient must be text, got {value!r}")
-            given["gradient"] = None if value == "none" else value
-        elif name == "size":
-            if not (isinstance(value, str) or (isinstance(value, list) and len(value) == 2
-                                               and all(type(v) is int for v in value))):
-                raise ParameterError(f"{where}: [settings] size must be \"WxH\" or [w, h], "
-                                     f"got {value!r}")
-            given["size"] = value if isinstance(value, str) else tuple(value)
         else:
             try:
-                declared = (particles_setting(scene) if name == "particles" and scene
-                            else SETTINGS[name])
-                given[name] = declared.convert(value, f"[settings] {name}")
+                given[name] = typed_setting(name, value, f"[settings] {name}", scene)
             except ParameterError as error:
                 raise ParameterError(f"{where}: {error}") from None
     return FrameSettings(**given)

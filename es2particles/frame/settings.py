@@ -323,6 +323,25 @@ def particles_setting(scene):
     return replace(SETTINGS["particles"], lo=1)
 
 
+def typed_setting(name, value, label, scene=None):
+    """Frame setting ``name`` as typed, on the command line (text) or in a run file (TOML's
+    types), converted once for both to the value a :class:`FrameSettings` holds: checked
+    against its declaration (the particle count against ``scene``'s range), the gradient
+    'none' as None (off), a run file's size [w, h] as a pair. ``label`` names it in a refusal."""
+    declared = SETTINGS[name]
+    if name == "particles" and scene is not None:
+        declared = particles_setting(scene)
+    if name == "size" and not isinstance(value, str):
+        if isinstance(value, list) and len(value) == 2 and all(type(v) is int for v in value):
+            return tuple(value)
+        raise ParameterError(f'{label} must be "WxH" or [w, h], got {value!r}')
+    if not declared.text:
+        return declared.convert(value, label)
+    if not isinstance(value, str):
+        raise ParameterError(f"{label} must be text, got {value!r}")
+    return None if name == "gradient" and value == "none" else value
+
+
 def scene_rendering(scene, particles=DEFAULT):
     """What ``scene`` draws with ``particles``: its :meth:`rendering`, or where its grids run
     alone and ``particles`` is 0, its :meth:`rendering_alone`."""

@@ -533,6 +533,11 @@ MUTATIONS = (
              (("shaders/glsl100/flame/march.frag", "    gl_FragColor *= u_weight;",
                "    gl_FragColor *= 1.0;"),),
              ("tests/test_flame.py",)),
+    Mutation("state-resumes-at-step-0", "run files", "a loaded state's step count not taken: "
+             "the resumed run's dither, gusts and clocks start again from step 0",
+             (("es2particles/frame/pipeline.py", "        self.sim.steps_done = steps\n",
+               "        self.sim.steps_done = 0\n"),),
+             ("tests/test_runs.py::test_a_state_round_trips_with_every_field_off_its_default",)),
     Mutation("gradient-map-green-luma", "post", "the gradient map weighs red as green is weighed",
              (("shaders/glsl100/post/gradient.frag", "vec3(0.2126, 0.7152, 0.0722)",
                "vec3(0.7152, 0.2126, 0.0722)"),),

@@ -175,6 +175,14 @@ class _Tally:
             self.parts[part] = {option: int(nbytes)}
 
 
+def _elements(quantity, count, each):
+    """(the option it grows with, bytes): ``each`` bytes an element of ``quantity``, whose
+    elements are the ``count`` particles, or a grid's cells (the scene's own: None)."""
+    if quantity.domain is None:
+        return PARTICLES, count * each
+    return None, quantity.domain.cells * each
+
+
 def pack_bytes(components, fmt):
     """Numpy temporaries (bytes a particle) of packing a start of ``components`` values into
     ``fmt``: the encoding, or the write of its texels where that is more."""
@@ -199,8 +207,8 @@ def estimate(plan, animation=None):
             held.add("state", PARTICLES, r.nbytes)
             q = r.quantity
             # The start: a float64 array (count, components) of each quantity, held together,
-            # and the packing of the largest.
-            peaks.add("start", PARTICLES, count * q.components * 8)
+            # and the packing of the largest; a grid's quantity has its cells, not the particles
+            peaks.add("start", *_elements(q, count, q.components * 8))
         elif r.kind == "target":  # a sort order's slots are the particles'; the rest, images
             held.add("targets", PARTICLES if r.swap == "draw" else SIZE, r.nbytes)
         else:
@@ -216,11 +224,14 @@ def estimate(plan, animation=None):
     if states:
         # Packing runs ENCODE_ROWS rows at a time: up to them, the temporaries measured; beyond,
         # each row's texels and the upload's copy of them.
-        rows = min(count, ENCODE_ROWS)
-        peaks.add("start", PARTICLES, max(
-            rows * pack_bytes(r.quantity.components, r.format)
-            + (count - rows) * 2 * r.quantity.parts(r.format) * bytes_per_texel(r.format)
-            for r in states))
+        def packing(r):
+            option, n = _elements(r.quantity, count, 1)
+            rows = min(n, ENCODE_ROWS)
+            return option, (rows * pack_bytes(r.quantity.components, r.format) + (n - rows) * 2
+                             * r.quantity.parts(r.format) * bytes_per_texel(r.format))
+
+        option, nbytes = max((packing(r) for r in states), key=lambda p: p[1])
+        peaks.add("start", option, nbytes)
     for v in plan.vertices.values():
         # Vertex data naming a particle's texel is the particles' (a mesh's is the scene's).
         option = PARTICLES if "a_texel" in dict(v.attributes) else None

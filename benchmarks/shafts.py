@@ -82,10 +82,13 @@ def main(argv=None):
             if name == OURS:
                 ours = d, distance
         d, distance = ours
-        far = distance[d > 4]
-        print(f"\nOurs: the pixels more than 4 codes off lie {far.min():.0f} to {far.max():.0f} "
-              f"pixels from the light's point; within 20 pixels of it the largest error is "
-              f"{d[distance < 20].max():.0f} codes.")
+        far, near = distance[d > 4], d[distance < 20]
+        where = (f"lie {far.min():.0f} to {far.max():.0f} pixels from the light's point"
+                 if far.size else "are none")
+        print(f"\nOurs: the pixels more than 4 codes off {where}; within 20 pixels of the light "
+              f"the largest error is {near.max():.0f} codes." if near.size else
+              f"\nOurs: the pixels more than 4 codes off {where}; no pixel lies within 20 "
+              "pixels of the light.")
 
 
 if __name__ == "__main__":

@@ -451,8 +451,6 @@ def _add_settings(parser, scene):
             continue
         d = particles_setting(scene) if name == "particles" else SETTINGS[name]
         default = scene.default_text(name) if name in scene_defaults else None
-        if name == "gradient" and not scene.renders.own_gradient:
-            default = "none"
         metavar = d.metavar or ("{" + ",".join(d.choices) + "}" if d.choices else
                                 ("N" if d.integer else "X"))
         parser.add_argument(d.flag_name, dest=name, default=None, metavar=metavar,

@@ -66,15 +66,28 @@ def test_plan_shows_only_what_the_scene_needs(capsys):
     (["--gradient", "rainbowish"], "gradient 'rainbowish' is unknown"),
     (["--bloom-radius", "40"], "--bloom-radius must be in [0.5, 4], got 40"),
     (["--point-size", "0"], "--point-size must be in [1, "),
-    # above the point sizes the driver draws (255 on llvmpipe, 2048 on NVIDIA's), which the
-    # probe sees up to 4096, and below --point-size's own top
-    pytest.param(["--point-size", "5000"], "point_size must be in [1, ", marks=pytest.mark.gl),
 ])
 def test_bad_input_is_a_clear_error_and_leaves_no_file(tmp_path, capsys, arguments, message):
     out = tmp_path / "x.png"
     assert main(["run", "dejong", *SMALL, *arguments, "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_point_size_beyond_what_the_driver_draws_is_one_line(gl, tmp_path, capsys):
+    """Past the top of the point sizes the driver draws (255 on llvmpipe, 2048 on NVIDIA's)
+    and within --point-size's own range: refused by the driver's top, naming it."""
+    from es2particles.frame.settings import MAX_POINT_SIZE
+
+    top = gl.caps.drawn_point_size_range[1]
+    if top + 1 > MAX_POINT_SIZE:
+        pytest.skip(f"this driver draws points up to {top:g}: beyond --point-size's own top")
+    out = tmp_path / "x.png"
+    assert main(["run", "dejong", *SMALL, "--point-size", f"{top + 1:g}", "--out",
+                 str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"point_size must be in [1, {top:g}]" in err and "Traceback" not in err, err
     assert list(tmp_path.iterdir()) == []
 
 

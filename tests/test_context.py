@@ -282,7 +282,7 @@ def test_without_fragment_highp_a_sort_order_is_refused_in_one_line():
 
 
 def test_sprites_are_clamped_to_the_probed_point_sizes_not_the_reported_ones():
-    """NVIDIA's ES context reports point sizes 1..10 and draws 400 px points: the sprites' and
+    """NVIDIA's ES context reports point sizes 1..10 and draws 2048 px points: the sprites' and
     the shadow map's sizes carry the probed top to their shaders' clamp; a probe that saw less
     than the report, or none, leaves the report."""
     from es2particles.frame.plan import frame_value

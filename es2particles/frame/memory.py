@@ -23,7 +23,8 @@ What a run holds from its executor on (``Estimate.held``):
 and, one after the other (``Estimate.peaks``: the largest counts):
 
 - **making**: the host copies made while uploading (the texel grid as float32, ``tobytes``);
-- **start**: the scene's start as numpy float64 arrays (count, components), all held at once
+- **start**: the scene's start as numpy float64 arrays (count, components), or a grid's
+  (cells, components), all held at once
   (counted for every state quantity: the plan cannot say which the start leaves at zero),
   and the numpy temporaries of packing the largest of them (``twins/pack.py``, measured with
   tracemalloc: 30 bytes a particle per packed 16-bit component in RGBA8, 17 per component and
@@ -204,8 +205,8 @@ def estimate(plan, animation=None):
     made = 0
     for r in plan.resources.values():
         if r.kind == "state":
-            held.add("state", PARTICLES, r.nbytes)
             q = r.quantity
+            held.add("state", _elements(q, count, 0)[0], r.nbytes)  # a grid's: the scene's
             # The start: a float64 array (count, components) of each quantity, held together,
             # and the packing of the largest; a grid's quantity has its cells, not the particles
             peaks.add("start", *_elements(q, count, q.components * 8))

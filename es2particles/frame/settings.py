@@ -51,10 +51,11 @@ OPTIONS = {"particles": "--particles", "size": "--size", "format": "--format",
 class FrameSettings:
     """What a run asks of the frame, beside the scene's own parameters. A setting left as
     ``DEFAULT`` takes the scene's default (particles, point size, steps, rounding) or the
-    framework's; one given that the scene's frame does not use (a gradient map for 3D sprites) is
+    framework's; one given that the scene's frame does not use (an exposure for 3D sprites) is
     an error naming it, never silently ignored.
 
-    ``gradient``: a ramp (see ``io.ramps``) or None (grey); ``bloom``: a
+    ``gradient``: a ramp (see ``io.ramps``) or None (a density grey, any other picture as
+    drawn); ``bloom``: a
     :class:`Bloom` or None (off). ``share``: which share of a larger
     still this is (``cluster/shares.py``)."""
 

@@ -109,7 +109,7 @@ class Capabilities:
     def drawn_point_size_range(self):
         """The point sizes the driver draws, which sprites and points are clamped to: its
         reported range (``point_size_range``), the top raised to the widest point a probe saw it
-        draw where that is wider (NVIDIA's ES context reports 1..10 and draws 4096): probed the
+        draw where that is wider (NVIDIA's ES context reports 1..10 and draws 2048): probed the
         first time it is asked for, then kept."""
         if not hasattr(self, "_drawn_point_size_range"):
             lo, hi = self.point_size_range
@@ -203,7 +203,8 @@ class Capabilities:
         out = {label: value for label, value in self.lines()
                if "precision" not in label and "render target" not in label
                and label not in ARTICLE_EXTENSIONS}
-        out["point size range (reported)"] = [float(v) for v in self.point_size_range]
+        del out["point size range (reported)"]  # under the key scripts have read all along
+        out["point size range"] = [float(v) for v in self.point_size_range]
         out["point sizes drawn (probed)"] = list(self.drawn_point_size_range)
         out["formats"] = {name: {"render target": bool(self.renderable.get(name)),
                                  "additive blend": bool(self.blendable.get(name))}

@@ -194,7 +194,7 @@ def _probe_format(ctx, fmt):
     return bool(abs(once[0] - 0.25) < 1e-3), bool(abs(twice[0] - 0.5) < 1e-3)
 
 
-POINT_PROBE_WIDTH = 4096  # the widest point the probe can see: sprites beyond it are not asked for
+POINT_PROBE_WIDTH = 4096  # the widest point the probe can see (wider than any picture's side here)
 
 
 def _probe_point_size(ctx):

@@ -53,4 +53,3 @@ def plan_post(b, source, mean_density, exposure, gradient="inferno", background=
                  {"u_mean": float(max(mean_density, 1e-12)), "u_exposure": exposure}, inputs,
                  defines, f"log curve, exposure {exposure:g}, {ramp_words}"
                  + (", over the scene's objects" if background is not None else ""))
-

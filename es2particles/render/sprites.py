@@ -3,9 +3,10 @@ with depth; declared by a scene as :class:`Sprites` and planned as stages of the
 
 Opaque meshes (``meshes.py``) are drawn first, with depth test and writes; then every particle
 is one point sprite (``sprites/sprite.vert``): its position and life fetched from the state
-textures, its size attenuated with the eye distance and clamped to the driver's point-size range,
-a sprite texture over ``gl_PointCoord`` mixed with a tint, alpha falling with age, blended
-additively or "over" (premultiplied), depth-tested against the meshes with depth writes off, so a
+textures, its size attenuated with the eye distance and clamped to the point sizes the driver
+draws (probed: ``Capabilities.drawn_point_size_range``), a sprite texture over ``gl_PointCoord``
+mixed with a tint, alpha falling with age, blended additively or "over" (premultiplied),
+depth-tested against the meshes with depth writes off, so a
 particle behind the cube is hidden and particles never hide each other. Sorting back to front
 (``render/sort.py``) and an opacity shadow map (``render/shadow.py``) are stages of the same plan.
 """

@@ -167,6 +167,8 @@ class Scene:
         """How the help of frame setting ``setting`` states this scene's default of it (one of
         :class:`~es2particles.frame.settings.Defaults`' fields)."""
         value = getattr(cls.defaults, setting)
+        if setting == "gradient" and not cls.renders.own_gradient:
+            return "none"  # a picture drawn in colour: the map is off unless a ramp is given
         if setting == "particles" and value >= 1024 and value & (value - 1) == 0:
             return f"2^{value.bit_length() - 1}"
         return f"{value:g}" if isinstance(value, float) else str(value)

@@ -91,6 +91,8 @@ class Boids(Scene):
     def default_text(cls, setting):
         if setting == "point_size":
             return f"{cls.defaults.point_size:g} (3D: {POINT_SIZE_3D:g})"
+        if setting == "gradient":  # 3D boids are sprites, drawn in colour
+            return f"{cls.defaults.gradient} (3D: none)"
         return super().default_text(setting)
 
     @classmethod

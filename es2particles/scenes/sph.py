@@ -176,6 +176,8 @@ class Sph(Scene):
     def default_text(cls, setting):
         if setting == "point_size":
             return f"{POINT_SIZE_2D:g} (3D: {SPRITE_PER_METRE:g} x the spacing in m)"
+        if setting == "gradient":  # 3D SPH is sprites, drawn in colour
+            return f"{cls.defaults.gradient} (3D: none)"
         return super().default_text(setting)
 
     def rendering(self):

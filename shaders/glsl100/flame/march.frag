@@ -30,6 +30,8 @@ uniform float u_step;     // steps run: the noise's clock, the dither's frame
 uniform float u_weight;   // 1 / K: this march's share of the K steps' average
 #endif
 
+#include "lib/ramp.glsl"
+
 #ifdef JITTER
 #include "lib/bayer.glsl"
 #endif
@@ -110,7 +112,7 @@ void main()
         for (int i = 0; i < STEPS; i++) {
             vec2 f = field(u_eye + (t0 + (float(i) + start) * h) * dir);
             float a = 1.0 - exp(-u_medium.x * f.x * h);
-            light += through * a * texture2D(u_ramp, vec2((f.y * 255.0 + 0.5) / 256.0, 0.5)).rgb;
+            light += through * a * ramp_colour(u_ramp, f.y);
             through *= 1.0 - a;
         }
     }

@@ -300,12 +300,16 @@ class GLDevice:
         try:
             yield
         finally:
-            if point_sprite:
-                self._gl_function("glDisable", ctypes.c_uint)(GL_POINT_SPRITE)
-            framebuffer.depth_mask = True
-            if not state.colour_write:
-                framebuffer.color_mask = (True, True, True, True)
-            self.mgl.enable_only(moderngl.NOTHING)
+            # An interrupt that lands between the yield and the with statement taking the
+            # scope leaves this generator to be closed by the collector, after the context may
+            # have been released on the way out: then there is nothing left to switch off.
+            if self.mgl is not None:
+                if point_sprite:
+                    self._gl_function("glDisable", ctypes.c_uint)(GL_POINT_SPRITE)
+                framebuffer.depth_mask = True
+                if not state.colour_write:
+                    framebuffer.color_mask = (True, True, True, True)
+                self.mgl.enable_only(moderngl.NOTHING)
 
     def _gl_function(self, name, *argtypes, required=False):
         """A GL entry point moderngl has no call for, through moderngl's own function loader

@@ -28,7 +28,7 @@ sys.path.insert(0, str(ROOT))
 
 import numpy as np  # noqa: E402
 from es2particles import open_context  # noqa: E402
-from es2particles.errors import Es2ParticlesError  # noqa: E402
+from es2particles.errors import ContextError, Es2ParticlesError  # noqa: E402
 from es2particles.frame.graph import scene_graph  # noqa: E402
 from es2particles.frame.pipeline import Pipeline  # noqa: E402
 from es2particles.frame.settings import DEFAULT  # noqa: E402
@@ -283,6 +283,16 @@ def main(argv=None):
         with_sort = frame_seconds(ctx, Smoke(), big // 4, size, repeats)
         results.add("smoke with its sort", with_sort * 1e3, "ms a frame",
                     f"{big // 4} particles, a step and a sorted frame")
+        try:  # the OpenGL ES back-end against desktop GL, in this process (docs/backends.md)
+            with open_context(backend="gles") as es:
+                for name, scene, count in (("dejong", DeJong(), big),
+                                           ("fountain", Fountain(), big // 4)):
+                    on_gl = frame_seconds(ctx, scene, count, size, repeats)
+                    on_es = frame_seconds(es, scene, count, size, repeats)
+                    results.add(f"{name} frame ES / GL", on_es / on_gl, "x",
+                                f"{count} particles, a step and a frame on each back-end")
+        except ContextError as error:
+            results.note(f"no OpenGL ES context, no ES / GL figures: {error}")
         step = step_seconds(ctx, DeJong(), huge, size, repeats)
         moved = huge * 4 * 2  # a position texel of 4 bytes (RGBA8), read and written
         rate = moved / step

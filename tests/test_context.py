@@ -300,6 +300,7 @@ def test_sprites_are_clamped_to_the_probed_point_sizes_not_the_reported_ones():
     assert Capabilities.assumed().drawn_point_size_range == (1.0, 255.0)
 
 
+@pytest.mark.gl
 def test_a_draw_scope_an_interrupt_left_open_closes_quietly_after_the_release():
     """A signal that lands in the draw scope's __enter__, after its generator yielded and before
     the with statement took it, leaves the generator for the collector to close, after the

@@ -136,25 +136,34 @@ def test_a_saved_run_file_makes_the_same_bytes(tmp_path, argv):
     assert c.read_bytes() == d.read_bytes() != a.read_bytes()
 
 
+def resumed(tmp_path, name, options, steps):
+    """Run ``name`` with ``options`` for ``steps`` steps (whole.png/.npz), for half of them
+    (half.png/.npz), and the half again from its saved state (resumed.png/.npz); assert the
+    resumed picture and every saved array are the whole run's. Returns the whole run's meta."""
+    import json
+
+    half = str(steps // 2)
+    for label, n in (("whole", str(steps)), ("half", half)):
+        assert main(["run", name, *options, "--steps", n, "--out", str(tmp_path / f"{label}.png"),
+                     "--save-state", str(tmp_path / f"{label}.npz")]) == 0
+    assert main(["run", name, *options, "--steps", half, "--load-state",
+                 str(tmp_path / "half.npz"), "--out", str(tmp_path / "resumed.png"),
+                 "--save-state", str(tmp_path / "resumed.npz")]) == 0
+    assert (tmp_path / "whole.png").read_bytes() == (tmp_path / "resumed.png").read_bytes()
+    with np.load(tmp_path / "whole.npz") as whole, np.load(tmp_path / "resumed.npz") as again:
+        assert sorted(whole.files) == sorted(again.files)
+        for key in whole.files:
+            assert np.array_equal(whole[key], again[key]), key
+        return json.loads(str(whole["meta"]))
+
+
 @pytest.mark.gl
 @pytest.mark.parametrize("name", ["fountain", "collision", "smoke", "dejong"])
 def test_load_state_resumes_byte_for_byte(tmp_path, name):
     """100 steps equal 50 steps, --save-state, --load-state and 50 more: the picture and the
     saved state (every texel of every part)."""
-    small = ["--particles", "1024", "--size", "64x64"]
-    assert main(["run", name, *small, "--steps", "100", "--out", str(tmp_path / "100.png"),
-                 "--save-state", str(tmp_path / "100.npz")]) == 0
-    assert main(["run", name, *small, "--steps", "50", "--out", str(tmp_path / "50.png"),
-                 "--save-state", str(tmp_path / "50.npz")]) == 0
-    assert main(["run", name, *small, "--steps", "50", "--load-state", str(tmp_path / "50.npz"),
-                 "--out", str(tmp_path / "resumed.png"), "--save-state",
-                 str(tmp_path / "resumed.npz")]) == 0
-    assert (tmp_path / "100.png").read_bytes() == (tmp_path / "resumed.png").read_bytes()
-    with np.load(tmp_path / "100.npz") as whole, np.load(tmp_path / "resumed.npz") as resumed:
-        assert sorted(whole.files) == sorted(resumed.files)
-        for key in whole.files:
-            assert np.array_equal(whole[key], resumed[key]), key
-    assert (tmp_path / "50.png").read_bytes() != (tmp_path / "100.png").read_bytes()
+    resumed(tmp_path, name, ["--particles", "1024", "--size", "64x64"], 100)
+    assert (tmp_path / "half.png").read_bytes() != (tmp_path / "whole.png").read_bytes()
 
 
 @pytest.mark.gl
@@ -174,22 +183,7 @@ def test_a_state_round_trips_with_every_field_off_its_default(tmp_path, name, op
     from the step count the file keeps), a count that is no power of two (spare texels), a
     seed, a scene parameter, and the grids beside the particles (wind) or a neighbour grid's
     sort order rebuilt from the positions (boids in 3D). The file's meta says what was saved."""
-    import json
-
-    small = [*options, "--size", "48x48"]
-    runs = {"whole": ("--steps", "24"), "half": ("--steps", "12")}
-    for label, steps in runs.items():
-        assert main(["run", name, *small, *steps, "--out", str(tmp_path / f"{label}.png"),
-                     "--save-state", str(tmp_path / f"{label}.npz")]) == 0
-    assert main(["run", name, *small, "--steps", "12", "--load-state", str(tmp_path / "half.npz"),
-                 "--out", str(tmp_path / "resumed.png"), "--save-state",
-                 str(tmp_path / "resumed.npz")]) == 0
-    assert (tmp_path / "whole.png").read_bytes() == (tmp_path / "resumed.png").read_bytes()
-    with np.load(tmp_path / "whole.npz") as whole, np.load(tmp_path / "resumed.npz") as resumed:
-        assert sorted(whole.files) == sorted(resumed.files)
-        for key in whole.files:
-            assert np.array_equal(whole[key], resumed[key]), key
-        meta = json.loads(str(whole["meta"]))
+    meta = resumed(tmp_path, name, [*options, "--size", "48x48"], 24)
     words = dict(zip(options[::2], options[1::2]))
     assert meta["scene"] == name and meta["steps_done"] == 24
     assert meta["particles"] == int(words["--particles"])

@@ -1,7 +1,8 @@
 """The gradient map: a colour ramp (``io/ramps.py``) as a 256 x 1 resource of the frame, which
 a density's tone map and a field's colouring read (``render/post.py``, ``render/field.py``), and
 the post stage that recolours any other rendering's picture along it by each pixel's
-brightness (``post/gradient.frag``; ``lib/ramp.glsl`` is the lookup all three share)."""
+brightness (``post/gradient.frag``; ``lib/ramp.glsl`` is the lookup these and the flame's
+march share)."""
 
 import numpy as np
 

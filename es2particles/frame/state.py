@@ -165,6 +165,13 @@ class Grid:
         atlas = atlas.reshape(rows, columns, h, w, -1).transpose(0, 2, 1, 3, 4)
         return atlas.reshape(rows * h * columns * w, -1)
 
+    def image(self, values):
+        """Values (H, W, C) (3D: (D, H, W, C)) as an image laid out as the grid's texture,
+        (rows, columns, C) with row 0 the texture's first: a scene texture whose texel
+        ``G_uv(cell)`` holds that cell's value (a 3D grid's atlas, its spare tiles zero)."""
+        w, h = self.size
+        return self.texel_rows(values).reshape(h, w, -1)
+
     def arranged(self, rows):
         """One row a texel (the texture's order) as the grid's array: (H, W, C), or a 3D grid's
         (D, H, W, C) (spare tiles dropped)."""

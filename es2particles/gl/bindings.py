@@ -148,13 +148,32 @@ def _reader(out, quantity, fmt, this_step, salt, hardware=False):
     _read_function(out, q, c, fmt, [f"texture2D({s}, uv)" for s in samplers],
                    None if quantity.storage or grid is not None else salt)
     if grid is not None:
-        _grid_uniforms(out, grid)
-        if grid.dimensions == 3:
-            _grid_tile(out, grid.name)
+        _grid_addressing(out, grid)
         out.lines += (_grid_reads_2d if grid.dimensions == 2 else _grid_reads_3d)(
             q, grid.name, GLSL_TYPES[c], hardware)
         out.owners.setdefault(f"{q}_at", f"quantity {q!r}")
         out.owners.setdefault(f"sample_{q}", f"quantity {q!r}")
+
+
+def _grid_addressing(out, grid):
+    """What a shader over or reading grid ``G`` addresses its cells by, declared once: its
+    uniforms (``u_G_size``...), a 3D grid's ``G_tile(k)``, and ``G_uv(cell)``, the texture
+    coordinate of cell (i, j) (3D: (i, j, k)): a texel centre of the grid's texture or atlas,
+    where a scene texture laid out as the grid (``Grid.image``) holds that cell too."""
+    _grid_uniforms(out, grid)
+    g = grid.name
+    if f"{g}_uv" in out.owners:
+        return
+    if grid.dimensions == 2:
+        out.declare(f"vec2 {g}_uv(vec2 cell)  // the texel of cell (i, j)", f"{g}_uv",
+                    f"the cells of grid {g!r}")
+        out.lines += ["{", f"    return (cell + 0.5) / u_{g}_size;", "}"]
+        return
+    _grid_tile(out, g)
+    out.declare(f"vec2 {g}_uv(vec3 cell)  // the atlas texel of cell (i, j, k)", f"{g}_uv",
+                f"the cells of grid {g!r}")
+    out.lines += ["{", f"    return ({g}_tile(cell.z) + cell.xy + 0.5) / "
+                       f"(u_{g}_size.xy * u_{g}_tiles);", "}"]
 
 
 def _grid_reads_2d(q, g, kind, hardware):
@@ -162,14 +181,14 @@ def _grid_reads_2d(q, g, kind, hardware):
     (a float texture filtered LINEAR) the sample is one fetch, its point held within the
     outer cells' centres (the edge cells extend outwards, as by hand)."""
     at = [f"{kind} {q}_at(vec2 cell)  // cell (i, j) of grid {g}, clamped to the grid",
-          "{", f"    return read_{q}((clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0) + 0.5) "
-               f"/ u_{g}_size);", "}"]
+          "{", f"    return read_{q}({g}_uv(clamp(floor(cell), vec2(0.0), u_{g}_size - 1.0)));",
+          "}"]
     where = f"(point - u_{g}_box.xy) / (u_{g}_box.zw - u_{g}_box.xy) * u_{g}_size - 0.5"
     if hardware:
         return at + [
             f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, by the hardware",
             "{", f"    vec2 c = clamp({where}, vec2(0.0), u_{g}_size - 1.0);",
-            f"    return read_{q}((c + 0.5) / u_{g}_size);", "}"]
+            f"    return read_{q}({g}_uv(c));", "}"]
     return at + [
         f"{kind} sample_{q}(vec2 point)  // bilinear at a world point, from decoded cells",
         "{", f"    vec2 c = {where};",
@@ -201,14 +220,12 @@ def _grid_reads_3d(q, g, kind, hardware):
                 f"mix({at(0, 1, dz)}, {at(1, 1, dz)}, t.x), t.y)")
     at_lines = [
         f"{kind} {q}_at(vec3 cell)  // cell (i, j, k) of grid {g}, clamped to the grid",
-        "{", f"    vec3 c = clamp(floor(cell), vec3(0.0), u_{g}_size - 1.0);",
-        f"    return read_{q}(({g}_tile(c.z) + c.xy + 0.5) / (u_{g}_size.xy * u_{g}_tiles));",
+        "{", f"    return read_{q}({g}_uv(clamp(floor(cell), vec3(0.0), u_{g}_size - 1.0)));",
         "}"]
     where = f"(point - u_{g}_lo) / (u_{g}_hi - u_{g}_lo) * u_{g}_size - 0.5"
     if hardware:
         def tap(k):
-            return (f"read_{q}(({g}_tile(clamp({k}, 0.0, u_{g}_size.z - 1.0)) + xy + 0.5) "
-                    f"/ (u_{g}_size.xy * u_{g}_tiles))")
+            return f"read_{q}({g}_uv(vec3(xy, clamp({k}, 0.0, u_{g}_size.z - 1.0))))"
         sample = [
             f"{kind} sample_{q}(vec3 point)  // trilinear at a world point, by the hardware",
             "{", f"    vec3 c = {where};", "    float k = floor(c.z);",
@@ -352,7 +369,7 @@ def pass_interface(spec, quantities, fmt, part=0, neighbours=None, hardware=froz
                     owners={**BUILT_IN, "v_uv": "the built-in v_uv"})
     grid = quantities[spec.writes].domain
     if grid is not None:
-        _grid_uniforms(out, grid)
+        _grid_addressing(out, grid)
         out.declare(f"{GLSL_TYPES[grid.dimensions]} grid_cell()", "grid_cell",
                     "the built-in grid_cell()")
         cell, point = (_grid_cell if grid.dimensions == 2 else _grid_cell_3d)(grid.name)

@@ -25,11 +25,10 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..twins.life import life_range, longest_life
+from .air import ADVECTIONS, WALL_KINDS, Air
 from .base import Push, Scene, clamp_report
 
-WALL_KINDS = {"slip": 0.0, "noslip": 1.0, "open": 2.0}  # a number: a moving no-slip wall (3)
 SIDES = ("left", "right", "bottom", "top")
-ADVECTIONS = ("semi-lagrangian", "maccormack")
 MAX_GRID = 4096  # cells a side: beyond, the context's textures decide (and refuse)
 MAX_ALPHA = 1e4  # nu dt / dx^2 beyond which k Jacobi iterations leave almost all of the error
 
@@ -197,14 +196,6 @@ def solid_mask(spec, shape, extent):
     return solid
 
 
-def texels(mask):
-    """A boolean mask (rows from the bottom) as an RGBA8 texture, r = 255 where set."""
-    out = np.zeros(mask.shape + (4,), np.uint8)
-    out[mask, 0] = 255
-    out[..., 3] = 255
-    return out
-
-
 class Wind(Scene):
     """Wind round obstacles: a stable-fluids MAC grid in passes, carrying particles."""
 
@@ -241,6 +232,15 @@ class Wind(Scene):
 
         return Field("wind", self.view, self.params.max_speed, self.background())
 
+    def air(self):
+        """The scene's air: a 2D :class:`~es2particles.scenes.air.Air` from its parameters."""
+        p = self.params
+        kinds, speeds = p.wall_uniforms
+        bw, bh = p.extent
+        return Air(p.shape, (0.0, 0.0), (float(bw), float(bh)), p.dt, p.max_speed, kinds,
+                   speeds, self.solid, p.advection, p.viscosity, p.viscosity_iterations,
+                   p.pressure_iterations, p.warm_start, p.vorticity, p.wind, p.gusts, p.drag)
+
     def graph(self, caps=None, count=None):
         """The fluid's passes, then the particles' (none where ``count`` is 0)."""
         from ..gl.context import Capabilities
@@ -248,98 +248,14 @@ class Wind(Scene):
         p = self.params
         g = PassGraph()
         (bw, bh), u = p.extent, p.max_speed
-        (w, h), (dx, dy) = p.shape, p.cell
+        w, h = p.shape
         largest = (caps or Capabilities.assumed()).max_texture_size
         if max(w, h) + 1 > largest:  # the faces' grids are a cell longer
             raise ParameterError(f"--grid {w}x{h}: this context's textures are at most "
                                  f"{largest} texels a side, and the faces need one more than "
                                  f"the cells: at most {largest - 1} cells a side")
-        # The MAC grid: pressure and divergence at the air's cell centres; u on the x faces,
-        # v on the y faces, each a grid of its own size whose box puts its cell centres on the
-        # faces (so sample_u and sample_v are plain bilinear reads).
-        air = g.grid("air", (w, h), box=((0.0, 0.0), (bw, bh)))
-        xfaces = g.grid("xfaces", (w + 1, h), box=((-dx / 2, 0.0), (bw + dx / 2, bh)))
-        yfaces = g.grid("yfaces", (w, h + 1), box=((0.0, -dy / 2), (bw, bh + dy / 2)))
-        faces = {"u": xfaces, "v": yfaces}
-        g.quantity("u", -u, u, components=1, domain=xfaces)
-        g.quantity("v", -u, u, components=1, domain=yfaces)
-        g.quantity("wind", -u, u, domain=air)  # at the cell centres: saved and drawn
-        # |divergence| <= 2 u (1/dx + 1/dy) through a cell's faces
-        reach = 2 * u * (1 / dx + 1 / dy)
-        g.quantity("divergence", -reach, reach, components=1, domain=air)
-        g.quantity("pressure", -self.pressure_reach, self.pressure_reach, components=1,
-                   domain=air)
-        xblocked, yblocked = self.blocked_faces()
-        g.texture("solid", texels(self.solid))
-        g.texture("xblocked", texels(xblocked))
-        g.texture("yblocked", texels(yblocked))
-        kinds, speeds = p.wall_uniforms
-        cell, dt = (float(dx), float(dy)), float(p.dt)
-        frag = "wind/fluid.frag"
-
-        def face_passes(name, writes, reads=(), reads_new=(), uniforms=None, define=None,
-                        more=()):
-            """One pass a component: ``writes`` and the reads name "{c}" for it."""
-            for c in ("u", "v"):
-                def named(q):
-                    return q.format(c=c)
-                g.add(f"{name}_{c}", frag, writes=named(writes),
-                      reads=[named(q) for q in reads], reads_new=[named(q) for q in reads_new],
-                      textures=["xblocked" if c == "u" else "yblocked"],
-                      uniforms=uniforms or {},
-                      defines={d: None for d in (define, "X_FACES" if c == "u" else "Y_FACES")
-                               + tuple(more)})
-
-        def air_pass(name, writes, reads_new, uniforms=None, defines=()):
-            g.add(name, frag, writes=writes, reads_new=reads_new, textures=["solid"],
-                  uniforms=uniforms or {}, defines={d: None for d in ("SOLID",) + defines})
-
-        for c in ("u", "v"):
-            if p.advection == "maccormack":
-                g.quantity(f"{c}_ahead", -u, u, components=1, domain=faces[c])
-                g.quantity(f"{c}_behind", -u, u, components=1, domain=faces[c])
-        if p.advection == "semi-lagrangian":
-            face_passes("advect", "{c}", reads=["u", "v"], uniforms={"u_dt": dt},
-                        define="ADVECT")
-        else:
-            face_passes("ahead", "{c}_ahead", reads=["u", "v"], uniforms={"u_dt": dt},
-                        define="AHEAD")
-            face_passes("behind", "{c}_behind", reads=["u", "v"], reads_new=["{c}_ahead"],
-                        uniforms={"u_dt": dt}, define="BEHIND")
-            face_passes("advect", "{c}", reads=["u", "v"],
-                        reads_new=["{c}_ahead", "{c}_behind"], uniforms={"u_dt": dt},
-                        define="CORRECT")
-        force = {"u_dt": dt, "u_force": tuple(map(float, p.wind)),
-                 "u_gusts": tuple(map(float, p.gusts)),
-                 "u_drag_at": tuple(map(float, (*p.drag[:2], max(p.drag[4], 1e-6),
-                                                1.0 if any(p.drag[2:4]) else 0.0))),
-                 "u_drag_velocity": tuple(map(float, p.drag[2:4]))}
-        reads_force = ["{c}"]
-        if p.vorticity > 0:
-            g.quantity("curl", -reach, reach, components=1, domain=air)
-            air_pass("curl", "curl", ["u", "v"], {"u_cell": cell}, ("CURL",))
-            force.update(u_vorticity=float(p.vorticity), u_cell=cell)
-            reads_force.append("curl")
-        face_passes("force", "{c}", reads_new=reads_force, uniforms=force, define="FORCE",
-                    more=("VORTICITY",) if p.vorticity > 0 else ())
-        if p.viscosity > 0:
-            for c in ("u", "v"):
-                g.quantity(f"{c}_held", -u, u, components=1, domain=faces[c])
-            face_passes("hold", "{c}_held", reads_new=["{c}"], define="HOLD")
-            with g.repeat("viscosity_iterations", p.viscosity_iterations):
-                face_passes("viscosity", "{c}", reads_new=["{c}", "{c}_held"],
-                            uniforms={"u_dt": dt, "u_cell": cell, "u_viscosity": p.viscosity,
-                                      "u_walls": kinds, "u_wall_speed": speeds},
-                            define="VISCOSITY")
-        # the projection: the divergence, the pressure's iterations (>= 1), the faces' gradient
-        air_pass("divergence", "divergence", ["u", "v"], {"u_cell": cell}, ("DIVERGENCE",))
-        with g.repeat("pressure_iterations", p.pressure_iterations,
-                      warm_start={"pressure": p.warm_start}):
-            air_pass("pressure", "pressure", ["pressure", "divergence"],
-                     {"u_cell": cell, "u_walls": kinds}, ("PRESSURE", "PRESSURE_NEIGHBOURS"))
-        face_passes("project", "{c}", reads_new=["{c}", "pressure"], uniforms={"u_cell": cell},
-                    define="PROJECT")
-        air_pass("centres", "wind", ["u", "v"], defines=("CENTRES",))
+        self.air().declare(g)
+        dt = float(p.dt)
         if count == 0:
             return g
         # the particles: velocity, then position, then the life clock
@@ -378,32 +294,10 @@ class Wind(Scene):
         velocity (the force passes' u_drag_at and u_drag_velocity)."""
         return Push("u_drag_at", "u_drag_velocity", 0.1 * self.params.extent[1])
 
-    def blocked_faces(self):
-        """Boolean (H, W + 1) and (H + 1, W): the x and y faces on a closed wall or beside an
-        obstacle, whose velocity is held at 0."""
-        kinds, _ = self.params.wall_uniforms
-        closed = [k != WALL_KINDS["open"] for k in kinds]
-        solid = self.solid
-        h, w = solid.shape
-        x = np.zeros((h, w + 1), bool)
-        x[:, 1:] |= solid
-        x[:, :-1] |= solid
-        x[:, 0] |= closed[0]
-        x[:, -1] |= closed[1]
-        y = np.zeros((h + 1, w), bool)
-        y[1:] |= solid
-        y[:-1] |= solid
-        y[0] |= closed[2]
-        y[-1] |= closed[3]
-        return x, y
-
     @property
     def pressure_reach(self):
-        """The pressure's range, +-(m^2/s): a quarter of --max-speed times the box's longer
-        side. The projection's pressure undoes one step's divergence, and at the defaults it
-        stays within +-0.06 (measured): the range keeps RGBA8's codes fine (the gradient divides
-        a code's error by a cell) with room to spare."""
-        return self.params.max_speed * max(self.params.extent) / 4
+        """The pressure's range, +-(m^2/s): the air's (:attr:`Air.pressure_reach`)."""
+        return self.air().pressure_reach
 
     def start(self, count, rng):
         """Particles alive at free places, ages spread over their lifetimes; the air still."""

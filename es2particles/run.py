@@ -148,7 +148,7 @@ def resolved_settings(settings, scene):
     state settings only where the scene keeps state, each as the value that acts (a file naming
     another would be refused on reading)."""
     from .frame.settings import (COMMON_SETTINGS, STATE_SETTINGS, acting_state_settings,
-                                 keeps_state, resolve, scene_rendering)
+                                 keeps_particles, keeps_state, resolve, scene_rendering)
 
     out = {}
     rendering = scene_rendering(scene, settings.particles)
@@ -156,6 +156,8 @@ def resolved_settings(settings, scene):
     for name in COMMON_SETTINGS + tuple(rendering.settings):
         if stateless and name in STATE_SETTINGS:
             continue
+        if name == "particles" and not stateless and not keeps_particles(scene):
+            continue  # a state of grids alone (the wind flame's): the count is refused
         value = resolve(settings, scene.defaults, name, rendering)
         if name == "bloom":
             out["bloom"] = False if value is None else {

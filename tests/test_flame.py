@@ -1,8 +1,10 @@
 """The flame (issue 42, item 2): the blackbody ramp against Planck's and Stefan-Boltzmann's laws
-written here; the march through a uniform grid against the closed form of emission and
-absorption over each ray's chord (rays and box written here); the smoke flame's splat against
-its particles binned in float64; the march's error against a 256-step reference (the docs'
-table); and the options' refusals."""
+written here; the march through a uniform grid, and through a uniform fire in the state (the
+wind source's), against the closed form of emission and absorption over each ray's chord (rays
+and box written here); the smoke flame's splat against its particles binned in float64; the
+wind flame's fire rising from its burner; the march's error against a 256-step reference (the
+docs' table); and the options' refusals. The wind source's air step against float64:
+``test_air3d.py``."""
 
 import numpy as np
 import pytest
@@ -79,8 +81,18 @@ def _rgba8(pipeline, name):
     return np.frombuffer(pipeline.executor.read(name), np.uint8).reshape(h, w, 4).astype(float)
 
 
-@pytest.mark.parametrize("steps, jitter", [(1, "off"), (7, "on")])
-def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
+class UniformFire(Flame):
+    """The wind flame with its fire set by hand: density RHO and temperature 1 in every cell;
+    no step runs, so the field is uniform."""
+
+    RHO = 0.375
+
+    def start(self, count, rng):
+        n = self.params.cells
+        return {"fire": np.broadcast_to([self.RHO, 1.0], (n, n, n, 2))}
+
+
+def _closed_form_holds(scene, p, size, rho):
     """Density rho in every cell: along a chord c, L = (E / K) B (1 - exp(-K rho c)) + background
     exp(-K rho c) and the picture 1 - exp(-L), exact at any step count. Within the ramp's
     rounding (half a code, carried through the curve) and the output's conversion: 0.6 of a code,
@@ -88,15 +100,10 @@ def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
     allows either neighbouring code): an H200 went 0.03 of a code past half a code where
     llvmpipe rounds to nearest. The mean error stays within a tenth of a code: a
     half-code bias fails."""
-    n, size = 8, (96, 64)
-    scene = UniformGrid(source="smoke", cells=n, extinction=1.5, emission=3.0, march_steps=steps,
-                        march_jitter=jitter, eye=(2.5, 2.6, 4.2), target=(0.0, 1.5, 0.0))
     rendering = scene.rendering()
-    with Pipeline(gl, scene, particles=UniformGrid.PER * n ** 3, size=size, steps=0) as p:
-        next(p.frames())
-        got = _rgba8(p, "flame")[..., :3] / 255
-        camera = p.camera(0, 1)
-    rho = UniformGrid.PER * rendering.per_particle
+    next(p.frames())
+    got = _rgba8(p, "flame")[..., :3] / 255
+    camera = p.camera(0, 1)
     chord = _chords(np.array(camera.eye), _rays(camera, size), *scene.params.box)
     through = np.exp(-scene.params.extinction * rho * chord)[..., None]
     ratio = scene.params.emission / scene.params.extinction
@@ -105,10 +112,70 @@ def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
     assert (chord > 0).mean() > 0.3 and chord.max() > 3  # the box fills much of the picture
     slack = 0.6 / 255 + np.exp(-light) * ratio * (1 - through) * 0.5 / 255 + 1e-4
     error = got - want
-    print(f"steps {steps}: mean {error.mean() * 255:+.3f} codes, max "
-          f"{np.abs(error).max() * 255:.2f}")
+    print(f"mean {error.mean() * 255:+.3f} codes, max {np.abs(error).max() * 255:.2f}")
     assert np.all(np.abs(error) <= slack)
     assert abs(error.mean()) < 0.1 / 255
+
+
+VIEW = dict(extinction=1.5, emission=3.0, eye=(2.5, 2.6, 4.2), target=(0.0, 1.5, 0.0))
+
+
+@pytest.mark.parametrize("steps, jitter", [(1, "off"), (7, "on")])
+def test_a_uniform_grid_is_the_closed_form(gl, steps, jitter):
+    """The smoke source's splatted grid, uniform: the closed form (``_closed_form_holds``)."""
+    n, size = 8, (96, 64)
+    scene = UniformGrid(source="smoke", cells=n, march_steps=steps, march_jitter=jitter, **VIEW)
+    with Pipeline(gl, scene, particles=UniformGrid.PER * n ** 3, size=size, steps=0) as p:
+        _closed_form_holds(scene, p, size, UniformGrid.PER * scene.rendering().per_particle)
+
+
+@pytest.mark.parametrize("fmt", ["rgba8", "rgba32f"])
+def test_a_uniform_fire_in_the_state_is_the_closed_form(gl, fmt):
+    """The wind source's march reads the fire from the state (its generated trilinear sample of
+    the 3D grid, decoding 16-bit codes in RGBA8): uniform, it is the same closed form."""
+    n, size = 6, (96, 64)
+    scene = UniformFire(source="wind", cells=n, march_steps=5, march_jitter="on", **VIEW)
+    with Pipeline(gl, scene, size=size, steps=0, fmt=fmt, rounding="nearest") as p:
+        _closed_form_holds(scene, p, size, UniformFire.RHO)
+
+
+def test_the_wind_flame_rises_from_its_burner(gl):
+    """From still air the fire fed at the burner rises as a column: after two seconds (16^3
+    cells) the air in the column over the burner moves up at over 1 m/s a metre up, its fire
+    has reached above 1.5 m and not yet 2.5 m (its front moves at about the air's speed), and
+    none is beside the column; a stronger buoyancy lifts its front higher."""
+    def column(**given):
+        scene = Flame(source="wind", cells=16, **given)
+        with Pipeline(gl, scene, size=(16, 16), steps=60) as p:
+            next(p.frames())
+            fire, v = p.sim.download("fire"), p.sim.download("v")[..., 0]
+        lo, hi = scene.params.box
+        y = (np.arange(16) + 0.5) / 16 * (hi[1] - lo[1]) + lo[1]
+        middle = slice(6, 10)  # over the burner at the box's centre
+        heat = fire[middle, :, middle, 1].mean(axis=(0, 2))
+        front = y[heat > 0.01].max()
+        return front, y, v[middle, :16, middle].mean(axis=(0, 2)), fire
+    front, y, rise, fire = column()
+    print(f"the fire's front at {front:.2f} m; the column rises at {rise[4]:.2f} m/s at "
+          f"{y[4]:.2f} m")
+    assert 1.5 < front < 2.5 and rise[4] > 1.0
+    assert fire[:, :, :3, 1].max() < 1e-3 and fire[:, :, -3:, 1].max() < 1e-3  # not beside it
+    assert column(buoyancy=20.0)[0] > front
+
+
+def test_the_wind_flame_s_seed_stirs_its_start(gl):
+    """The seed draws the start's stir of the air (at most 0.02 m/s a face, blocked faces
+    still), so two seeds make two fires; the same seed the same bytes."""
+    def fire(seed):
+        with Pipeline(gl, Flame(source="wind", cells=8), size=(16, 16), steps=20,
+                      seed=seed) as p:
+            next(p.frames())
+            return p.sim.download("fire")
+    a, b = fire(1), fire(2)
+    assert np.array_equal(a, fire(1)) and not np.array_equal(a, b)
+    start = Flame(source="wind", cells=8).start(0, np.random.default_rng(3))
+    floor = start["v"][:, 0]
+    assert np.all(floor == 0) and 0.015 < np.abs(start["u"]).max() <= 0.02
 
 
 def test_the_splat_counts_the_particles_in_each_cell(gl):
@@ -218,8 +285,22 @@ def test_every_flame_option_acts(gl):
     assert not idle
 
 
+def test_every_wind_flame_option_acts(gl):
+    """Each option only the wind source uses, moved off its default, changes the picture."""
+    def picture(**given):
+        scene = Flame(source="wind", **{"cells": 10, **given})
+        with Pipeline(gl, scene, size=(48, 48), steps=40) as p:
+            next(p.frames())
+            return p.image()
+    base = picture()
+    idle = [name for name, value in {
+        "cells": 12, "burner": (0.2, 0.1, 0.0, 0.6), "buoyancy": 4.0, "cooling": (3.0, 0.6),
+        "vorticity": 3.0, "pressure_iterations": 2, "max_speed": 0.5}.items()
+        if np.array_equal(picture(**{name: value}), base)]
+    assert not idle
+
+
 @pytest.mark.parametrize("words, named", [
-    (["--source", "wind"], "--source wind"),
     (["--source", "fire"], "--source"),
     (["--march-steps", "0"], "--march-steps"),
     (["--march-steps", "1025"], "--march-steps"),
@@ -228,6 +309,13 @@ def test_every_flame_option_acts(gl):
     (["--source", "smoke", "--rise", "2"], "--rise"),
     (["--particles", "1000"], "--particles"),
     (["--format", "rgba32f"], "--format"),
+    (["--source", "wind", "--particles", "1000"], "--particles"),
+    (["--source", "wind", "--shape", "0.5,2,0.3,3"], "--shape"),
+    (["--source", "smoke", "--buoyancy", "2"], "--buoyancy"),
+    (["--burner", "0,0.1,0,0.2"], "--burner"),
+    (["--source", "wind", "--burner", "0,0.1,0,2"], "--burner"),
+    (["--source", "wind", "--cooling", "-1,0"], "--cooling"),
+    (["--source", "wind", "--pressure-iterations", "0"], "--pressure-iterations"),
 ])
 def test_bad_flame_options_are_one_line(tmp_path, words, named):
     out = tmp_path / "x.png"

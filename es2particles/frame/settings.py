@@ -271,6 +271,12 @@ def keeps_state(scene, rendering):
     return bool(rendering.reads) or bool(state_quantities(scene))
 
 
+def keeps_particles(scene):
+    """Whether ``--particles`` counts anything for ``scene``: its step keeps a quantity on the
+    particles (a state of grids alone, the wind flame's, counts none)."""
+    return any(q.domain is None for q in state_quantities(scene))
+
+
 def _inert_state_setting(scene, settings, quantities):
     """(setting, why) of a state setting given that changes nothing for ``scene``'s state, the
     formats its ``quantities`` (its pass graph's, with no context) take in the format given
@@ -390,6 +396,9 @@ def check_settings(settings, scene, rendering=None):
         raise ParameterError(f"{OPTIONS.get(stateful[0], stateful[0])}: scene {scene.name!r} "
                              "keeps no state here (no particles, no grid): nothing to count, "
                              "store, round or seed")
+    if "particles" in stateful and quantities and not keeps_particles(scene):
+        raise ParameterError(f"--particles: scene {scene.name!r} keeps grids here, no "
+                             "particles: there is nothing to count")
     given = {name: getattr(settings, name) for name in settings.given()}
     if "format" in given:
         SETTINGS["format"].convert(given["format"], "format")

@@ -166,9 +166,12 @@ class Grid:
         return atlas.reshape(rows * h * columns * w, -1)
 
     def image(self, values):
-        """Values (H, W, C) (3D: (D, H, W, C)) as an image laid out as the grid's texture,
+        """Values (H, W[, C]) (3D: (D, H, W[, C])) as an image laid out as the grid's texture,
         (rows, columns, C) with row 0 the texture's first: a scene texture whose texel
         ``G_uv(cell)`` holds that cell's value (a 3D grid's atlas, its spare tiles zero)."""
+        values = np.asarray(values)
+        if values.ndim == self.dimensions:  # one value a cell
+            values = values[..., None]
         w, h = self.size
         return self.texel_rows(values).reshape(h, w, -1)
 

@@ -22,7 +22,9 @@ simplex noise rising with time (the author's flame, made a density with a soft e
 its core and base); ``grid``, a grid of cells (``cells`` a side over the box, kept as an atlas
 of ``cells`` tiles, one a z slice) that the scene's particles are splatted into each frame
 (``flame/splat.vert``): a cell's density is its particles' count times ``per_particle``, its
-temperature their mean heat (1 at birth, 0 at the end of life), read trilinearly.
+temperature their mean heat (1 at birth, 0 at the end of life), read trilinearly; ``state``, a
+quantity of the scene's state on a 3D grid over the box, (density, temperature) (``quantity``:
+the wind flame's ``fire``, which its air carries), read by its generated trilinear sample.
 """
 
 from dataclasses import dataclass
@@ -35,7 +37,7 @@ from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 
-SOURCES = ("noise", "grid")
+SOURCES = ("noise", "grid", "state")
 MAX_STEPS = 1024
 RAMP_KELVIN = (1000.0, 3000.0)  # the ramp's temperatures 0 and 1
 RAMP_SIZE = 256
@@ -89,7 +91,8 @@ class Flame(Rendering):
     module's docstring). ``source``: noise (``shape``: radius, height, flicker, frequency (1/m);
     ``rise``: the noise's upward speed, m/s; ``dt``: seconds a step) or grid (``cells`` a side,
     ``per_particle``: a particle's density in its cell; reads position and life).
-    ``extinction``, ``emission``: K and E. ``steps`` segments a ray, ``jitter`` their sample's
+    ``extinction``, ``emission``: K and E. Or state: ``quantity``, a state quantity of two
+    components (density, temperature) on a 3D grid over the box. ``steps`` segments a ray, ``jitter`` their sample's
     place dithered. ``up``, ``fov``: the camera's up and vertical field of view (degrees), for
     the rays."""
 
@@ -106,6 +109,7 @@ class Flame(Rendering):
     dt: float = 1 / 30
     cells: int = 48
     per_particle: float = 0.125
+    quantity: str = "fire"
     up: tuple = (0.0, 1.0, 0.0)
     fov: float = 45.0
     shafts: object = None
@@ -127,7 +131,7 @@ class Flame(Rendering):
 
     @property
     def reads(self):
-        return ("position", "life") if self.source == "grid" else ()
+        return {"grid": ("position", "life"), "state": (self.quantity,)}.get(self.source, ())
 
     def uniforms(self, size):
         """The march's uniforms for a picture of ``size``."""
@@ -165,14 +169,18 @@ class Flame(Rendering):
         b.resource(Resource("flame ramp", "image", (RAMP_SIZE, 1), "rgba8", data=ramp_image(),
                             linear=True, what="the blackbody colour by temperature"))
         inputs["u_ramp"] = Ref("flame ramp")
-        scale = 1.0
+        scale, interface, generated = 1.0, None, {}
+        defines = {"STEPS": self.steps, f"SOURCE_{self.source.upper()}": None}
         if self.source == "grid":
             scale = self._plan_splat(b)
             inputs["u_grid"] = Ref("flame grid")
+        elif self.source == "state":
+            interface, generated = self._state_interface(b)
+            inputs.update(b.state_inputs(interface))
+            defines["field_sample"] = f"sample_{self.quantity}"
         uniforms = self.uniforms((w, h))
         if self.source == "grid":
             uniforms["u_density"] = float(self.per_particle / scale)
-        defines = {"STEPS": self.steps, f"SOURCE_{self.source.upper()}": None}
         if self.jitter:
             defines["JITTER"] = None
         b.resource(Resource("flame", "target", (w, h), "rgba8", linear=True,
@@ -186,16 +194,18 @@ class Flame(Rendering):
         what = (f"{self.steps} segments a ray through the {self.source} field"
                 + (", their samples dithered" if self.jitter else ", midpoints"))
         if samples == 1:
-            b.stage(Stage("flame", "flame", "flame/march.frag", defines=defines, inputs=inputs,
-                          target=Ref("flame"), uniforms=uniforms, frame_uniforms=frame,
+            b.stage(Stage("flame", "flame", "flame/march.frag", defines=defines,
+                          interface=interface, inputs=inputs, target=Ref("flame"),
+                          uniforms=uniforms, generated=generated, frame_uniforms=frame,
                           what=what))
             return "flame"
         fmt = next(f for f in SUM_FORMATS if f == "rgba8" or b.caps.blendable.get(f))
         b.resource(Resource("flame sum", "target", (w, h), fmt, linear=True,
                             what=f"{samples} marches, each weighed 1/{samples}"))
         b.stage(Stage("flame", "flame", "flame/march.frag",
-                      defines={**defines, "ACCUMULATE": None}, inputs=inputs,
-                      target=Ref("flame sum"), uniforms={**uniforms, "u_weight": 1 / samples},
+                      defines={**defines, "ACCUMULATE": None}, interface=interface,
+                      inputs=inputs, target=Ref("flame sum"),
+                      uniforms={**uniforms, "u_weight": 1 / samples}, generated=generated,
                       frame_uniforms=frame, state=DrawState(blend="add"),
                       clear=(0.0, 0.0, 0.0, 0.0), samples=samples,
                       what=f"{what}; {samples} steps' marches averaged in {fmt}"))
@@ -203,6 +213,20 @@ class Flame(Rendering):
                       inputs={"u_source": Ref("flame sum")}, target=Ref("flame"),
                       what="the average, in RGBA8"))
         return "flame"
+
+    def _state_interface(self, b):
+        """The march's generated reads of the state quantity (source state): its interface and
+        the values it declares. The quantity must be (density, temperature) on a 3D grid."""
+        q = b.graph_plan.quantities.get(self.quantity)
+        if q is None or q.domain is None or q.domain.dimensions != 3 or q.components != 2:
+            where = ("not in the scene's state" if q is None else "on the particles"
+                     if q.domain is None else f"of {q.components} components on a "
+                     f"{q.domain.dimensions}D grid")
+            raise ParameterError(f"the flame's state source marches quantity "
+                                 f"{self.quantity!r}, (density, temperature) on a 3D grid; it "
+                                 f"is {where}")
+        interface = stage_interface((self.quantity,), {self.quantity: q}, b.format)
+        return interface, generated_values(interface, q.domain.layout(b.caps.max_texture_size))
 
     def _plan_splat(self, b):
         """The grid's atlas and the stage adding each live particle's count and heat into its

@@ -5,12 +5,14 @@
 // and the frame: JITTER) and is integrated exactly for a field constant over it: opacity
 // a = 1 - exp(-K rho h), light added T a (E / K) B(temperature), T the light let through so far.
 // The field: SOURCE_NOISE, a stretched sphere's distance displaced by rising simplex noise;
-// SOURCE_GRID, the particles' cells (flame/splat.vert), read trilinearly from their atlas.
+// SOURCE_GRID, the particles' cells (flame/splat.vert), read trilinearly from their atlas;
+// SOURCE_STATE, a state quantity (density, temperature) on a 3D grid, read by its generated
+// trilinear sample (field_sample, defined by the plan as sample_<quantity>).
 precision highp float;
 #ifndef STEPS
 #define STEPS 64  // the plan defines it (a loop's bound is a constant in ES 2.0)
 #endif
-#if !defined(SOURCE_NOISE) && !defined(SOURCE_GRID)
+#if !defined(SOURCE_NOISE) && !defined(SOURCE_GRID) && !defined(SOURCE_STATE)
 #define SOURCE_NOISE  // the plan defines one
 #endif
 varying vec2 v_uv;
@@ -23,8 +25,10 @@ uniform vec3 u_hi;
 uniform vec2 u_medium;    // K (1/m at density 1) and E / K
 uniform vec3 u_background;
 uniform sampler2D u_ramp; // the blackbody colour by temperature, 256 texels
-#if defined(SOURCE_NOISE) || defined(JITTER)
-uniform float u_step;     // steps run: the noise's clock, the dither's frame
+// u_step: steps run, the noise's clock and the dither's frame (a state source's generated
+// reads declare it: lib/state.glsl)
+#if (defined(SOURCE_NOISE) || defined(JITTER)) && !defined(SOURCE_STATE)
+uniform float u_step;
 #endif
 #ifdef ACCUMULATE
 uniform float u_weight;   // 1 / K: this march's share of the K steps' average
@@ -86,6 +90,14 @@ vec2 field(vec3 p)
     vec4 b = texture2D(u_grid, (tile(min(z0 + 1.0, n - 1.0)) + xy) / u_atlas.zw);
     vec2 g = mix(a.xy, b.xy, c.z - z0);
     return vec2(g.x * u_density, clamp(g.y / max(g.x, 1e-6), 0.0, 1.0));
+}
+#endif
+
+#ifdef SOURCE_STATE
+// The state's (density, temperature) at p, clamped to [0, 1] as the ramp takes it.
+vec2 field(vec3 p)
+{
+    return clamp(field_sample(p), 0.0, 1.0);
 }
 #endif
 

@@ -328,12 +328,12 @@ void main()
     // the fire (density, temperature) arriving here along the flow, fire(x - dt u(x)),
     // trilinear, each part keeping u_keep of itself a step (it fades and cools); fed at the
     // burner, a flat ball at u_burner.xyz of radius u_burner.w (half as high), where each rises
-    // to u_feed flickering by noise, up to 0.3 of it, that drifts with time.
+    // to u_feed flickering by noise, up to 0.7 of it, that drifts with time (its puffs).
     vecd x = grid_point();
     vec2 fire = sample_fire(x - u_dt * wind_sample(x)) * u_keep;
     vecd r = (x - u_burner.xyz) / (u_burner.w * vec3(1.0, 0.5, 1.0));
     float inside = 1.0 - smoothstep(0.7, 1.0, length(r));
-    float flicker = 1.0 - 0.3 * (0.5 + 0.5 * simplex3(vec3(4.0 * x.xz, u_step * u_dt * 3.0)).w);
+    float flicker = 1.0 - 0.7 * (0.5 + 0.5 * simplex3(vec3(2.5 * x.xz, u_step * u_dt * 4.0)).w);
     write_fire(solid(c) ? vec2(0.0) : max(fire, inside * flicker * u_feed));
 #endif
 }

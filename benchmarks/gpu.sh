@@ -91,7 +91,7 @@ timeout 60 $PY -m es2particles info --backend gles 2>&1 | tee -a "$LOG"
 
 say "== the GL tier's core tests"
 TESTS="tests/test_packing.py tests/test_simulation.py tests/test_grids.py tests/test_wind.py"
-TESTS="$TESTS tests/test_dejong.py tests/test_executor.py tests/test_gles.py"
+TESTS="$TESTS tests/test_dejong.py tests/test_executor.py tests/test_gles.py tests/test_air3d.py"
 # -p checkout_clean beside the emptied addopts: without it the tests wrote .hypothesis/ into the
 # checkout (Hypothesis's home, which the plugin moves to a folder of the session's).
 timeout $([ -n "$DRY" ] && echo 240 || echo 120) $PY -m pytest -q -p no:cacheprovider \

@@ -259,6 +259,13 @@ def main(argv=None):
             seconds = step_seconds(ctx, Wind(grid=f"{cells}x{cells}"), big, size, repeats)
             results.add(f"wind {cells}^2 {log2(big)}", 1 / seconds, "steps/s",
                         f"{cells}^2 cells, 40 pressure iterations, {big} particles")
+        from es2particles.scenes.flame import Flame
+
+        for cells in ((16, 32) if dry else (64, 128)):  # the wind flame's 3D air
+            seconds = step_seconds(ctx, Flame(source="wind", cells=cells), DEFAULT, size,
+                                   repeats)
+            results.add(f"wind flame {cells}^3", 1 / seconds, "steps/s",
+                        f"{cells}^3 cells of 3D air and its fire, 40 pressure iterations")
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         from sampling import ours as sample_ms
 

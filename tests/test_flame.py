@@ -163,6 +163,28 @@ def test_the_wind_flame_rises_from_its_burner(gl):
     assert column(buoyancy=20.0)[0] > front
 
 
+@pytest.mark.slow
+def test_the_wind_flame_is_stable_at_its_defaults_and_says_when_it_is_not(gl):
+    """Ten seconds of the wind flame (24^3 cells, 300 steps): at the defaults its air stays well
+    inside its range (measured: 3.7 m/s at most of 8); with confinement eight times as strong
+    (--vorticity 8) the curls grow until the air sits on the range's edge (measured by 120
+    steps), and the run's end says so, naming the options to change."""
+    def run(**given):
+        scene = Flame(source="wind", cells=24, **given)
+        with Pipeline(gl, scene, size=(16, 16), steps=300) as p:
+            next(p.frames())
+            fastest = max(np.abs(p.sim.download(c)).max() for c in "uvw")
+            return fastest, scene.after_run(p.sim)
+    fastest, said = run()
+    print(f"defaults: {fastest:.2f} m/s at most; vorticity 8: ", end="")
+    assert fastest < 0.7 * 8.0 and said == []
+    fastest, said = run(vorticity=8.0)
+    print(f"{fastest:.2f} m/s; {said}")
+    assert fastest == pytest.approx(8.0, abs=0.01)
+    assert any("written beyond it and clamped" in line and "--vorticity" in line
+               for line in said)
+
+
 def test_the_wind_flame_s_seed_stirs_its_start(gl):
     """The seed draws the start's stir of the air (at most 0.02 m/s a face, blocked faces
     still), so two seeds make two fires; the same seed the same bytes."""

@@ -1,6 +1,6 @@
 """The flame: the article's last repository demo, a raymarched flame, here an emission and
 absorption integral through a volume (``render/flame.py``) whose density and temperature come
-from one of two sources:
+from one of three sources:
 
 - ``noise``: no particles, the author's field (a stretched sphere's distance displaced by two
   octaves of noise rising with time), made a density with a soft edge, hotter at its core and
@@ -28,7 +28,7 @@ from ..params import param
 from ..render.flame import MAX_STEPS, Flame as FlameRendering, flame_light
 from ..render.shafts import ShaftParams
 from .air import WALL_KINDS, Air, Fire
-from .base import Scene
+from .base import Scene, clamp_report
 from .emitter import CAMERAS, camera_of, eye, target
 
 SOURCES = ("noise", "smoke", "wind")
@@ -173,6 +173,12 @@ class Flame(Scene):
             return {}
         return {c: np.where(blocked, 0.0, rng.uniform(-STILL_AIR, STILL_AIR, blocked.shape))
                 [..., None] for c, blocked in zip("uvw", self.air.blocked())}
+
+    def after_run(self, sim):
+        """Quantities clamped at their range's edge, said once: the wind flame's air with what
+        to change (its confinement, strong, grows without bound: measured at --vorticity 8)."""
+        hint = "raise --max-speed, or lower --vorticity (strong confinement grows without bound)"
+        return clamp_report(sim, hints={c: hint for c in "uvw"} if self.air else None)
 
     def camera_at(self, frame, frames):
         return camera_of(self.params, frame, frames)

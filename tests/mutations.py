@@ -806,7 +806,7 @@ CI_SUBSET = ("pack-half-code-high", "side-of-entry-gone", "substeps-two-cells", 
              "iterations-not-ping-ponged", "wind-divergence-sign",
              "neighbour-search-past-the-cell", "boids-separation-attracts",
              "liquid-density-linear", "shafts-sprite-opacity-inverted",
-             "trails-keep-a-ghost", "flame-ramp-half-texel")
+             "trails-keep-a-ghost", "flame-ramp-half-texel", "air3d-stencil-without-z")
 
 
 def make_copy(folder):

@@ -24,7 +24,9 @@ two can never disagree:
   ``u_G_box`` (its world rectangle x0, y0, x1, y1); for each grid quantity ``q`` read, beside
   ``read_q(uv)``: ``q_at(cell)`` (the value of cell (i, j), clamped to the grid: stencils) and
   ``sample_q(point)`` (bilinear at a world point, from the four decoded cells around it: linear
-  filtering of packed bytes would mix high and low bytes); a pass over a grid gets
+  filtering of packed bytes would mix high and low bytes) and ``G_uv(cell)`` (the texture
+  coordinate of a cell, where a scene texture laid out as the grid holds it too); a pass over a
+  grid gets
   ``grid_cell()`` (the (i, j) it computes) and ``grid_point()`` (that cell's centre). On a 3D
   grid (an atlas of slices) the same take and give vec3: ``q_at(vec3 cell)``, a trilinear
   ``sample_q(vec3 point)`` across slices, ``grid_cell()`` (i, j, k), with ``u_G_size`` (W, H,

@@ -91,10 +91,10 @@ class Flame(Rendering):
     module's docstring). ``source``: noise (``shape``: radius, height, flicker, frequency (1/m);
     ``rise``: the noise's upward speed, m/s; ``dt``: seconds a step) or grid (``cells`` a side,
     ``per_particle``: a particle's density in its cell; reads position and life).
-    ``extinction``, ``emission``: K and E. Or state: ``quantity``, a state quantity of two
-    components (density, temperature) on a 3D grid over the box. ``steps`` segments a ray, ``jitter`` their sample's
-    place dithered. ``up``, ``fov``: the camera's up and vertical field of view (degrees), for
-    the rays."""
+    Or state: ``quantity``, a state quantity of two components (density, temperature) on a 3D
+    grid over the box. ``extinction``, ``emission``: K and E. ``steps`` segments a ray,
+    ``jitter`` their sample's place dithered. ``up``, ``fov``: the camera's up and vertical
+    field of view (degrees), for the rays."""
 
     source: str = "noise"
     lo: tuple = (-1.0, 0.0, -1.0)

@@ -10,11 +10,11 @@ from one of three sources:
   its particles' count and its temperature their mean heat (1 at birth, cooling to 0 at the end
   of life): a flame driven by a simulation;
 - ``wind``: the wind field's fluid in 3D (``air.py``: stable fluids on a MAC grid of
-  ``--cells``^3 over the box, open but for the floor), carrying a fire, (density, temperature)
-  at the cells, fed at a burner on the floor; its heat lifts the air, vorticity confinement
+  ``--cells``^3 over the box, open at the top, slip walls elsewhere), carrying a fire,
+  (density, temperature) at the cells, fed at a burner on the floor; its heat lifts the air, vorticity confinement
   keeps its curls, and it cools and fades as it rises: a flame of a simulated fluid.
 
-Either is coloured by a blackbody ramp (Planck's law at three wavelengths, 800 to 3,000 K).
+Each is coloured by a blackbody ramp (Planck's law at three wavelengths, 1,000 to 3,000 K).
 """
 
 from dataclasses import dataclass
@@ -36,7 +36,8 @@ SOURCES = ("noise", "smoke", "wind")
 USED_BY = {"shape": ("noise",), "rise": ("noise",), "cells": ("smoke", "wind"),
            "burner": ("wind",), "buoyancy": ("wind",), "cooling": ("wind",),
            "vorticity": ("wind",), "pressure_iterations": ("wind",), "max_speed": ("wind",)}
-# The wind flame's air: open to the sides and above, a slip floor (x0, x1, y0, y1, z0, z1).
+# The wind flame's air: open at the top, slip walls elsewhere (x0, x1, y0, y1, z0, z1); with
+# open sides strong confinement grew sooner at their edges, where air is drawn in.
 WIND_WALLS = tuple(WALL_KINDS["open" if side == 3 else "slip"] for side in range(6))
 WIND_STEPS = 90  # three seconds at the default dt: the fire has risen to the top of the box
 STILL_AIR = 0.02  # m/s: the largest stir of the wind flame's air at the start (--seed)
@@ -115,9 +116,9 @@ class FlameParams(ShaftParams):
     @property
     def box(self):
         """The march's box: the noise flame's reach (its radius and height, plus the most the
-        noise moves its surface), or the smoke flame's grid."""
+        noise moves its surface), or the smoke's and the wind's grid."""
         if self.source != "noise":
-            return SMOKE_BOX  # the smoke's and the wind's grid
+            return SMOKE_BOX
         radius, height, flicker, _ = self.shape
         reach = radius + 1.5 * flicker
         return (-reach, 0.0, -reach), (reach, height + 1.5 * flicker, reach)

@@ -238,8 +238,10 @@ class Wind(Scene):
         kinds, speeds = p.wall_uniforms
         bw, bh = p.extent
         return Air(p.shape, (0.0, 0.0), (float(bw), float(bh)), p.dt, p.max_speed, kinds,
-                   speeds, self.solid, p.advection, p.viscosity, p.viscosity_iterations,
-                   p.pressure_iterations, p.warm_start, p.vorticity, p.wind, p.gusts, p.drag)
+                   speeds=speeds, solid=self.solid, advection=p.advection,
+                   viscosity=p.viscosity, viscosity_iterations=p.viscosity_iterations,
+                   pressure_iterations=p.pressure_iterations, warm_start=p.warm_start,
+                   vorticity=p.vorticity, force=p.wind, gusts=p.gusts, drag=p.drag)
 
     def graph(self, caps=None, count=None):
         """The fluid's passes, then the particles' (none where ``count`` is 0)."""

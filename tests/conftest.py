@@ -111,7 +111,8 @@ BOTH_BACKENDS = {"test_packing", "test_bits32", "test_numerics", "test_wide", "t
                  "test_grids", "test_grids3d", "test_neighbours", "test_boids", "test_sph",
                  "test_liquid", "test_flame", "test_render", "test_meshes", "test_sort",
                  "test_sprite_roles", "test_metaballs", "test_shafts", "test_bloom",
-                 "test_soft", "test_lamp", "test_trails", "test_vertex_fetch", "test_export"}
+                 "test_soft", "test_lamp", "test_trails", "test_vertex_fetch", "test_export",
+                 "test_air3d"}
 
 
 def pytest_generate_tests(metafunc):

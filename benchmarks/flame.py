@@ -7,10 +7,11 @@ compares the picture with the 256-step midpoint reference's, made here: mean and
 difference in codes of the 8-bit picture, and the milliseconds of the flame's stages alone (the
 splat and the march; the median of 5 after a warm-up). The author's flame sphere-traces 128 steps
 a pixel; the 128-step row is ours at that cost. The cost growth: milliseconds against steps and
-against pixels. The peer: the same noise march in numpy (float64, ``twins/flame.py``) at 128x128,
+against pixels (the wind source's air is stepped again for each row, but only the march is
+timed). The peer: the same noise march in numpy (float64, ``twins/flame.py``) at 128x128,
 against our march at that size. docs/scenes/flame.md quotes it.
 
-    python benchmarks/flame.py [--size 512] [--source noise|smoke]
+    python benchmarks/flame.py [--size 512] [--source noise|smoke|wind]
 """
 
 import argparse
@@ -64,7 +65,7 @@ def numpy_peer(size, steps):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
-    parser.add_argument("--source", default="noise", choices=("noise", "smoke"))
+    parser.add_argument("--source", default="noise", choices=("noise", "smoke", "wind"))
     args = parser.parse_args(argv)
     size, source = (args.size, args.size), {"source": args.source}
     with open_context() as ctx:

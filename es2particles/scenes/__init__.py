@@ -32,9 +32,9 @@ _EXPORTS = {"Attractor": "attractor", "Defaults": "base", "Fill": "base", "Scene
 
 # The modules (what pdoc documents); the classes above are reached as attributes.
 __all__ = ["base", "attractor", "dejong", "clifford", "emitter", "collision", "fountain",
-           "collision3d", "confetti", "smoke", "wind", "boids", "liquid", "sph", "flame", "field_compression", "installed_scenes",
-           "scene_class",
-           "ENTRY_POINT_GROUP", "BUILT_IN"]
+           "collision3d", "confetti", "smoke", "air", "wind", "boids", "liquid", "sph", "flame",
+           "field_compression", "installed_scenes", "scene_class", "ENTRY_POINT_GROUP",
+           "BUILT_IN"]
 
 
 def __getattr__(name):

@@ -59,7 +59,7 @@ class Air3:
         "c" (the cells)."""
         half = np.asarray(self.cell) / 2
         o = np.asarray(self.lo, float) + half
-        if which in "uvw" and which != "c":
+        if which != "c":
             o["uvw".index(which)] -= half["uvw".index(which)]
         return o
 

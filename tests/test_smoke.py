@@ -18,6 +18,7 @@ from es2particles.render.camera import Camera
 from es2particles.scenes.smoke import Smoke, SmokeParams
 from es2particles.frame.pipeline import Renderer
 from es2particles.render.shadow import RGBA8_UNIT, OpacityShadow, light_through, opacity_map
+from es2particles.render.sort import DepthSort
 from es2particles.render.sprites import Sprites, smoke_texture
 from es2particles.twins import flow
 from es2particles.twins import smoke as twin
@@ -440,7 +441,7 @@ def sprites(gl, points, shadow, sort, opacity=1.0, size=(256, 256)):
     the points' order or sorted, with the shadow map ``shadow`` (or none)."""
     sprites = Sprites(sprite="smoke", size_spread=0.0, attenuation=(0, 0, 1 / 36), blend="over",
                       tint=(1, 1, 1, 1), opacity=opacity, background=(0, 0, 0), shadow=shadow,
-                      sort=sort)
+                      sort=sort)  # None or a DepthSort
     with still(gl, points) as (sim, quantities):
         with Renderer(gl, sprites, sim, size=size, point_size=40.0) as renderer:
             renderer.draw(CAMERA)
@@ -520,7 +521,7 @@ def test_over_blending_needs_back_to_front(gl):
     # so its own share of that layer barely shades it. Texel order: front first, the wrong
     # order for "over".
     points = np.array([[0.0, 2.5, 2.4], [0.0, 2.5, -2.0]])
-    image, light_map, map_size = sprites(gl, points, settings, sort="full", opacity=0.5)
+    image, light_map, map_size = sprites(gl, points, settings, sort=DepthSort(), opacity=0.5)
     lit, dark = expected_light(settings, light_map, points, 0.5, map_size)
     assert lit > dark + 0.3
     flat, _, _ = sprites(gl, points[:1], None, sort=None, opacity=0.5)

@@ -13,6 +13,7 @@ import pytest
 from es2particles import Simulation
 from es2particles.errors import CapabilityError
 from es2particles.frame.pipeline import Pipeline, Renderer
+from es2particles.render.buffer import SoftParticles, SpriteBuffer
 from es2particles.render.camera import Camera
 from es2particles.render.meshes import floor
 from es2particles.render.sprites import Sprites
@@ -33,8 +34,9 @@ def centre_glow(gl, height, soft, scene_depth, buffer_scale=1.0):
         black = floor(3.0, colour=(0.0, 0.0, 0.0), colour2=(0.0, 0.0, 0.0))
         sprites = Sprites(sprite="disc", blend="add", size_spread=0.0, tint=(1, 1, 1, 1),
                           opacity=1.0, attenuation=(1.0, 0.0, 0.0), meshes=(black,),
-                          light=(0.0, 5.0, 0.0), background=(0, 0, 0), soft=soft,
-                          scene_depth=scene_depth, buffer_scale=buffer_scale)
+                          light=(0.0, 5.0, 0.0), background=(0, 0, 0),
+                          soft=SoftParticles(soft, scene_depth) if soft > 0 else None,
+                          buffer=SpriteBuffer(buffer_scale) if buffer_scale < 1 else None)
         with Renderer(gl, sprites, sim, size=SIZE, point_size=40.0 * 1024 / SIZE[1]) as r:
             r.draw(DOWN)
             image = r.read().astype(float)
@@ -77,7 +79,7 @@ def test_the_depth_texture_path_needs_a_context_that_has_it(gl):
         b = PlanBuilder("x", FrameSettings(particles=64, size=(32, 32)), caps, Sprites())
         b.graph_plan = plan.graph
         b.layout, b.format, b.size = plan.layout, plan.format, (32, 32)
-        replace(scene.rendering(), scene_depth="texture").plan(b, Defaults())
+        replace(scene.rendering(), soft=SoftParticles(0.1, "texture")).plan(b, Defaults())
 
 
 def sphere_edges(camera, size, centre=(0.0, 1.0, 0.0), radius=1.0, width=2.0):
@@ -145,8 +147,9 @@ def over_picture(gl, soft, upsample="bilinear"):
         grey = floor(3.0, colour=(0.5, 0.5, 0.5), colour2=(0.5, 0.5, 0.5))
         sprites = Sprites(sprite="disc", blend="over", size_spread=0.0, tint=(1, 0.5, 0.2, 1),
                           opacity=0.6, attenuation=(1.0, 0.0, 0.0), meshes=(grey,),
-                          light=(0.0, 5.0, 0.0), background=(0, 0, 0), soft=soft,
-                          upsample=upsample)
+                          light=(0.0, 5.0, 0.0), background=(0, 0, 0),
+                          soft=SoftParticles(soft) if soft > 0 else None,
+                          buffer=SpriteBuffer(upsample=upsample) if soft > 0 else None)
         with Renderer(gl, sprites, sim, size=SIZE, point_size=40.0 * 1024 / SIZE[1]) as r:
             r.draw(DOWN)
             return r.read().astype(float)

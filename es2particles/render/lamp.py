@@ -42,6 +42,9 @@ class Lamp:
     opacity: float = 0.5
     ambient: float = 0.3
 
+    what = "the lamp"  # how a refusal names it, as a feature of Sprites
+    vertex_textures = 0  # in the sprites' own vertex shader (its passes draw them again)
+
     def __post_init__(self):
         for name in ("position", "target"):
             value = tuple(float(check_range(f"lamp {name}", v, -1e4, 1e4))
@@ -65,6 +68,26 @@ class Lamp:
         distance = float(np.linalg.norm(np.subtract(self.target, self.position)))
         return Camera(eye=self.position, target=self.target, up=up, fov=self.angle,
                       near=distance * 0.02, far=distance * 4.0)
+
+
+    def check_sprites(self, sprites):
+        """Refuse sprites (a :class:`~es2particles.render.sprites.Sprites`) whose shadows this
+        lamp cannot cast: one kind of shadow at a time, and sprites of a world size."""
+        if sprites.shadow is not None:
+            raise ParameterError("one kind of shadow at a time: an opacity shadow map "
+                                 "(shadow) or the lamp's light map (lamp)")
+        a, b, _ = sprites.attenuation
+        if (a, b) != (0.0, 0.0) or sprites.size_law != "perspective":
+            raise ParameterError("the lamp's shadows need sprites of a world size: "
+                                 "attenuation (0, 0, c) and the perspective size law")
+
+    def plan_scene(self, b, sprites, draw):
+        """Draw the opaque scene into the picture lit by the lamp (:func:`plan_lamp`), for the
+        sprites' ``draw`` (a :class:`~es2particles.render.sprites.SpriteDraw`)."""
+        per_focal = draw.pixel_size / np.sqrt(sprites.attenuation[2])
+        light_focal = self.camera().focal_pixels(self.size)
+        plan_lamp(b, sprites, ("light_size", per_focal, light_focal, float(sprites.size_spread),
+                               b.size[1]))
 
 
 def plan_lamp(b, sprites, light_size):

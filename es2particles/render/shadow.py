@@ -44,6 +44,9 @@ class OpacityShadow:
     ambient: float = 0.2
     format: str = "auto"
 
+    what = "the shadow map"  # how a refusal names it, as a feature of Sprites
+    vertex_textures = 2  # the map and the sprite texture, for a sprite's footprint in it
+
     def __post_init__(self):
         for name in ("light", "centre"):
             value = tuple(float(check_range(f"shadow {name}", v)) for v in getattr(self, name))
@@ -79,6 +82,33 @@ class OpacityShadow:
 
     def layer_depth(self):
         return 2 * self.radius / LAYERS
+
+    def check_sprites(self, sprites):
+        """Refuse sprites (a :class:`~es2particles.render.sprites.Sprites`) this map cannot
+        shadow: it draws each at its world size, from its life."""
+        a, b, _ = sprites.attenuation
+        if (a, b) != (0.0, 0.0):
+            raise ParameterError(f"shadow needs attenuation (0, 0, c): sprites that shrink as "
+                                 f"1 / distance, as their shadows do (got "
+                                 f"{tuple(sprites.attenuation)})")
+        if sprites.size_law == "jogl":
+            raise ParameterError("the jogl size law gives every sprite one size a frame; a "
+                                 "shadow needs sprites that shrink as 1 / distance "
+                                 "(perspective)")
+        if "fade" not in sprites.roles:
+            raise ParameterError("shadow needs a fade role: the map's pass reads each "
+                                 "particle's life")
+
+    def attach(self, b, sprites, draw):
+        """Plan the map before the sprites' ``draw`` (a
+        :class:`~es2particles.render.sprites.SpriteDraw`) and shadow them by it."""
+        per_focal = draw.pixel_size / np.sqrt(sprites.attenuation[2])
+        uniforms, light_focal = plan_shadow(b, sprites, per_focal)
+        draw.defines["SHADOWED"] = None
+        draw.inputs.update(u_shadow_map=Ref("shadow map"), u_shadow_sprite=Ref("sprite"))
+        draw.uniforms.update(uniforms)
+        draw.frame["u_light_size"] = ("light_size", per_focal, light_focal,
+                                      float(sprites.size_spread), b.size[1])
 
 
 def choose_format(caps, fmt):

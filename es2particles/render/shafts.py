@@ -64,6 +64,9 @@ class Shafts:
     light: tuple = None
     reference: bool = False
 
+    what = "light shafts"  # how a refusal names them, as a feature of Sprites
+    vertex_textures = 0  # in the sprites' own vertex shader (their occluders draw them again)
+
     def __post_init__(self):
         check_range("shaft taps", self.taps, 1, MAX_TAPS, integer=True)
         check_range("shaft passes", self.passes, 1, MAX_PASSES, integer=True)

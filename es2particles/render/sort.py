@@ -41,11 +41,12 @@ from ..errors import ParameterError, check_range
 from ..frame.order import (FLOAT_KEY_MAX, FORMATS, MAX_COUNT, MIN_INDEX_BITS, Order,  # noqa: F401
                            comparators, index_bits, levels, network_pass, network_sort,
                            order_defines, order_format, plan_merge, plan_order, schedule)
-from ..frame.plan import PlanBuilder, Ref, Resource, Stage, depth_range
+from ..frame.plan import PlanBuilder, Ref, Resource, Stage, Vertices, depth_range
 from ..frame.settings import FrameSettings
 from ..frame.state import FORMATS as STATE_FORMATS, Layout
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.context import numpy_dtype
+from ..params import Params, param
 
 # --- how sorted an order is ------------------------------------------------------------------
 
@@ -135,6 +136,59 @@ def plan_key(b, order, position):
                   frame_uniforms={"u_eye": ("eye",), "u_forward": ("forward",),
                                   "u_depth": ("depth_range", position.lo, position.hi)},
                   what="the view depth of each slot's particle"))
+
+
+@dataclass(frozen=True)
+class DepthSort:
+    """A feature a :class:`~es2particles.render.sprites.Sprites` rendering takes: its sprites
+    drawn back to front, sorted by the whole network every frame (``passes`` None) or by
+    ``passes`` merge passes a frame, the order converging over frames as the particles move."""
+
+    passes: int = None
+
+    what = "the depth sort"  # how a refusal names it
+    vertex_textures = 1  # the order, sampled in the sprites' vertex shader
+
+    def __post_init__(self):
+        if self.passes is not None:
+            check_range("sort (merge passes per frame)", self.passes, 1, 10 ** 6, integer=True)
+
+    def attach(self, b, sprites, draw):
+        """Plan the network before the sprites' ``draw`` (a
+        :class:`~es2particles.render.sprites.SpriteDraw`) and draw them in its order."""
+        network = plan_sort(b, b.graph_plan.quantities[sprites.roles["position"]], self.passes)
+        draw.defines.update(network.defines(), SORTED=None)
+        draw.inputs["u_order"] = Ref("order")
+        draw.vertices = b.vertex_data(Vertices("slots", "texels", b.layout.count, network.width,
+                                               network.height)).name
+        draw.order = "back to front"
+
+
+@dataclass(frozen=True)
+class SortParams(Params):
+    """The depth sort's option, for a scene whose sprites take the sort as a feature."""
+
+    sort: str = param("full", text=True, metavar="{full,off,N}",
+                      help="back-to-front order: full (the whole sorting network every frame), "
+                           "off (texel order), or N merge passes per frame (spread over "
+                           "frames, Latta 2004)")
+
+    def check(self):
+        super().check()
+        if self.sort not in ("full", "off"):
+            try:
+                passes = int(self.sort)
+            except ValueError:
+                passes = 0
+            if not 1 <= passes <= 10 ** 4 or str(passes) != self.sort.strip():
+                raise ParameterError(f"--sort must be full, off or a whole number of merge "
+                                     f"passes per frame in [1, 10000], got {self.sort!r}")
+
+    def depth_sort(self):
+        """The :class:`DepthSort` this option asks for, or None."""
+        if self.sort == "off":
+            return None
+        return DepthSort() if self.sort == "full" else DepthSort(int(self.sort))
 
 
 def plan_sort(b, position, passes_per_frame=None, fmt=None):

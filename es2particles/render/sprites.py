@@ -7,8 +7,12 @@ textures, its size attenuated with the eye distance and clamped to the point siz
 draws (probed: ``Capabilities.drawn_point_size_range``), a sprite texture over ``gl_PointCoord``
 mixed with a tint, alpha falling with age, blended additively or "over" (premultiplied),
 depth-tested against the meshes with depth writes off, so a
-particle behind the cube is hidden and particles never hide each other. Sorting back to front
-(``render/sort.py``) and an opacity shadow map (``render/shadow.py``) are stages of the same plan.
+particle behind the cube is hidden and particles never hide each other.
+
+The sprites take features, each declared on its own and planning its own stages: sorting back
+to front (``sort.py: DepthSort``), an opacity shadow map (``shadow.py: OpacityShadow``) or the
+ARM chapter's lamp (``lamp.py: Lamp``), soft particles and a buffer at a lower resolution
+(``buffer.py``), and light shafts (``shafts.py``).
 """
 
 from dataclasses import dataclass, replace
@@ -16,14 +20,18 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import CapabilityError, ParameterError, check_range
-from ..frame.plan import Ref, Rendering, Resource, Stage, Vertices
+from ..frame.plan import Ref, Rendering, Resource, Stage
 from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 from ..params import param
-from .meshes import plan_mesh_passes, plan_meshes
+from .buffer import BufferParams, SoftParams, SoftParticles, SpriteBuffer, plan_buffered
+from .lamp import Lamp
+from .meshes import plan_meshes
 from .points import vertex_fetch
-from .shafts import ShaftParams
+from .shadow import OpacityShadow
+from .shafts import ShaftParams, Shafts, plan_shafts
+from .sort import DepthSort
 
 BLENDS = ("add", "over")
 # The renderer's inputs: role -> (the name its shader reads it by, components, define).
@@ -32,11 +40,6 @@ BLENDS = ("add", "over")
 # sprite's size over the camera's squared xz distance to an anchor (the fountain's base), as a
 # fraction of its squared distance at the start, clamped to the point size range.
 SIZE_LAWS = ("perspective", "jogl")
-# Sprites drawn into a buffer of their own (soft, or at a lower resolution) come back over the
-# picture by one of these (sprites/upsample.frag); the scene's distance they fade by is read
-# from the picture's depth texture or from a packed pre-pass (lib/depth.glsl).
-UPSAMPLES = ("nearest", "bilinear", "bilateral")
-SCENE_DEPTHS = ("auto", "texture", "packed")
 ROLES = {"position": ("position", (3,), None), "fade": ("life", (2,), "FADE"),
          "size": ("size_factor", (1,), "SIZE"), "colour": ("colour", (3,), "COLOUR"),
          "orientation": ("orientation", (1,), "ORIENTATION"),
@@ -154,17 +157,6 @@ def sprite_image(spec):
     return load_sprite(spec)
 
 
-def plan_depth_prepass(b, meshes, size):
-    """The opaque scene's distance packed into an RGBA8 target (for a context that cannot
-    sample a depth buffer): each mesh drawn again with ``sprites/depth.frag``."""
-    b.resource(Resource("scene depth", "target", size, "rgba8", depth=True,
-                        what="the opaque scene's distance, packed in 16 bits (no depth "
-                             "textures to sample)"))
-    far = (254 / 255, 254 / 255, 0.0, 1.0)  # pack16(1): the far plane
-    plan_mesh_passes(b, meshes, "depth", "depth", "sprites/depth.frag", "scene depth", far,
-                     "its distance, packed", {"u_planes": ("depth_planes",)})
-
-
 # --- the look a scene's options set --------------------------------------------------------------
 
 def blend_param(default):
@@ -178,29 +170,15 @@ def sprite_param(default):
 
 
 @dataclass(frozen=True)
-class SpriteLook(ShaftParams):
+class SpriteLook(BufferParams, SoftParams, ShaftParams):
     """The sprites' look, declared by the rendering: a scene drawn by :class:`Sprites` takes
-    these options (and the light shafts') beside its own, and a scene drawn otherwise lists
-    none of them. A scene re-declares a field with :func:`blend_param` or :func:`sprite_param`
-    for its own default."""
+    these options beside its own, and a scene drawn otherwise lists none of them. The features
+    a rendering takes declare their own (the light shafts', the soft particles', the sprite
+    buffer's: ``shafts.py``, ``buffer.py``). A scene re-declares a field with
+    :func:`blend_param` or :func:`sprite_param` for its own default."""
 
     blend: str = blend_param("add")
     sprite: str = sprite_param("fireball")
-    soft: float = param(0.0, 0.0, 100.0, unit="m",
-                        help="soft particles (the ARM chapter's): a sprite fades over this "
-                             "distance into the opaque scene behind it; 0: depth-tested")
-    buffer_scale: float = param(1.0, 0.05, 1.0,
-                                help="draw the sprites into a buffer of this share of the "
-                                     "picture's resolution (the chapter's 640x360 under 1080p: "
-                                     "0.33), laid over the picture by --upsample")
-    scene_depth: str = param("auto", choices=SCENE_DEPTHS,
-                             help="where soft sprites read the scene's distance: its depth "
-                                  "texture (OES_depth_texture), a packed pre-pass (plain ES "
-                                  "2.0), or auto: the texture where the context has it")
-    upsample: str = param("bilateral", choices=UPSAMPLES,
-                          help="how a smaller sprite buffer comes back over the picture: the "
-                               "nearest texel, bilinear, or bilateral (following the scene's "
-                               "depth at object edges)")
     size_law: str = param("perspective", choices=SIZE_LAWS,
                           help="how sprite sizes follow the camera: perspective (size over the "
                                "eye distance) or jogl (the seed's: size over the camera's squared "
@@ -209,21 +187,11 @@ class SpriteLook(ShaftParams):
     def check(self):
         super().check()
         check_sprite(self.sprite)
-        # Options that act only beside another: each given without it is refused in one line
-        # (it did nothing).
-        declared = self.declarations()
-        if self.scene_depth != declared["scene_depth"].default and self.soft == 0:
-            raise ParameterError("--scene-depth: only soft sprites read the scene's distance; "
-                                 "give --soft D (above 0) with it")
-        if self.upsample != declared["upsample"].default and self.buffer_scale == 1:
-            raise ParameterError("--upsample: only a sprite buffer smaller than the picture "
-                                 "comes back over it; give --buffer-scale below 1 with it")
 
     def sprite_look(self):
         """The :class:`Sprites` fields these options set."""
-        return {"blend": self.blend, "sprite": self.sprite, "soft": self.soft,
-                "buffer_scale": self.buffer_scale, "upsample": self.upsample,
-                "scene_depth": self.scene_depth}
+        return {"blend": self.blend, "sprite": self.sprite, "soft": self.soft_particles(),
+                "buffer": self.sprite_buffer()}
 
 
 # --- the declaration ----------------------------------------------------------------------------
@@ -254,10 +222,9 @@ class Sprites(Rendering):
     light : (x, y, z)
         The point light of the meshes.
     background : (r, g, b)
-    sort : None, "full" or int
-        Draw order: None, the particles' texel order; ``"full"``, back to front, sorted by the
-        whole sorting network every frame; k, k merge passes per frame, the order converging
-        over frames as the particles move (``render/sort.py``). Order matters for ``over``.
+    sort : sort.DepthSort or None
+        Draw order: None, the particles' texel order; a :class:`~es2particles.render.sort.
+        DepthSort`, back to front. Order matters for ``over``.
     shadow : shadow.OpacityShadow or None
         Self-shadowing by an opacity shadow map seen from its light; needs attenuation
         (0, 0, c), so that a sprite has one world size.
@@ -274,6 +241,19 @@ class Sprites(Rendering):
         corners that turn out of the point's square are cut); ``heading`` (3 components, a
         velocity: the texture turned to point, on screen, the way the particle moves; its +x is
         the front). Default: position and fade by ``life``.
+    lamp : lamp.Lamp or None
+        The ARM chapter's spot lamp: the particles' shadows on the meshes, the meshes' on the
+        floor (one kind of shadow at a time: ``shadow`` or ``lamp``).
+    soft : buffer.SoftParticles or None
+        Sprites that fade into the opaque scene behind them.
+    buffer : buffer.SpriteBuffer or None
+        The sprites drawn into a buffer at a lower resolution, laid over the picture.
+    shafts : shafts.Shafts or None
+        Light shafts over the picture, the sprites among their occluders.
+
+    The sort, the shadow map, the lamp, soft particles, the buffer and the shafts are features
+    of their own: each is declared by its own object (and its options, where a scene offers
+    them, by its own parameters), checks what it needs of the sprites, and plans its own stages.
     """
 
     sprite: object = "fireball"
@@ -294,15 +274,17 @@ class Sprites(Rendering):
     law_anchor: tuple = (0.0, 0.0)
     law_distance: float = 1.0
     lamp: object = None
-    soft: float = 0.0
-    buffer_scale: float = 1.0
-    upsample: str = "bilateral"
-    scene_depth: str = "auto"
+    soft: object = None
+    buffer: object = None
     shafts: object = None
 
     settings = ("point_size", "vertex_fetch")
     has_camera = True
     kind = "it draws 3D sprites: no tone map or accumulation"
+
+    # Each feature's slot and the declaration it takes.
+    FEATURES = {"sort": DepthSort, "shadow": OpacityShadow, "lamp": Lamp, "soft": SoftParticles,
+                "buffer": SpriteBuffer, "shafts": Shafts}
 
     def __post_init__(self):
         if self.blend not in BLENDS:
@@ -311,44 +293,18 @@ class Sprites(Rendering):
         a, b, c = (check_range("attenuation", v, 0.0, 1e6) for v in self.attenuation)
         if a + b + c <= 0:
             raise ParameterError("attenuation (a, b, c) must not be all zero")
-        if self.shadow is not None and (a, b) != (0.0, 0.0):
-            raise ParameterError(f"shadow needs attenuation (0, 0, c): sprites that shrink as "
-                                 f"1 / distance, as their shadows do (got {tuple(self.attenuation)})")
         check_range("opacity", self.opacity, 0.0, 1.0)
         check_range("growth", self.growth, 0.01, 100.0)
-        if self.lamp is not None:
-            if self.shadow is not None:
-                raise ParameterError("one kind of shadow at a time: an opacity shadow map "
-                                     "(shadow) or the lamp's light map (lamp)")
-            if (a, b) != (0.0, 0.0) or self.size_law != "perspective":
-                raise ParameterError("the lamp's shadows need sprites of a world size: "
-                                     "attenuation (0, 0, c) and the perspective size law")
-        check_range("soft (fade distance)", self.soft, 0.0, 1e3)
-        if not 0.0 < float(self.buffer_scale) <= 1.0:
-            raise ParameterError(f"buffer scale must be in (0, 1], got {self.buffer_scale!r}")
-        check_range("buffer scale", self.buffer_scale, 0.01, 1.0)
-        if self.upsample not in UPSAMPLES:
-            raise ParameterError(f"upsample must be one of {', '.join(UPSAMPLES)}, got "
-                                 f"{self.upsample!r}")
-        if self.scene_depth not in SCENE_DEPTHS:
-            raise ParameterError(f"scene depth must be one of {', '.join(SCENE_DEPTHS)}, got "
-                                 f"{self.scene_depth!r}")
         if self.size_law not in SIZE_LAWS:
             raise ParameterError(f"size law must be one of {', '.join(SIZE_LAWS)}, got "
                                  f"{self.size_law!r}")
         if self.size_law == "jogl":
-            if self.shadow is not None:
-                raise ParameterError("the jogl size law gives every sprite one size a frame; a "
-                                     "shadow needs sprites that shrink as 1 / distance "
-                                     "(perspective)")
             if len(self.law_anchor) != 2:
                 raise ParameterError(f"law_anchor is the x, z of the point the camera's "
                                      f"distance is taken to, got {self.law_anchor}")
             for v in self.law_anchor:
                 check_range("law_anchor", v)
             check_range("law_distance", self.law_distance, 1e-6, 1e6)
-        if self.sort is not None and self.sort != "full":
-            check_range("sort (merge passes per frame)", self.sort, 1, 10 ** 6, integer=True)
         object.__setattr__(self, "meshes", tuple(self.meshes))
         roles = {"position": "position", "fade": "life"} if self.roles is None \
             else dict(self.roles)
@@ -359,10 +315,15 @@ class Sprites(Rendering):
         if "heading" in roles and "orientation" in roles:
             raise ParameterError("sprite roles: a heading or an orientation turns the texture, "
                                  "not both")
-        if self.shadow is not None and "fade" not in roles:
-            raise ParameterError("shadow needs a fade role: the map's pass reads each "
-                                 "particle's life")
         object.__setattr__(self, "roles", roles)
+        for slot, kind in self.FEATURES.items():
+            feature = getattr(self, slot)
+            if feature is not None and not isinstance(feature, kind):
+                raise ParameterError(f"sprites' {slot} must be a {kind.__name__} or None, got "
+                                     f"{feature!r}")
+        for feature in (self.shadow, self.lamp):  # what a shadow needs of the sprites
+            if feature is not None:
+                feature.check_sprites(self)
 
     @property
     def reads(self):
@@ -409,122 +370,45 @@ class Sprites(Rendering):
                 f"attenuation or bring the camera closer (or the particles are out of sight)")
 
     def plan(self, b, defaults):
-        """Add the sort, shadow map, mesh and sprite stages to plan builder ``b``; the image is
-        what the frame presents."""
-        from .shadow import plan_shadow
-        from .sort import plan_sort
-
+        """Add the features' stages (the sort's network, the shadow map, the lamp's), the
+        meshes, the sprites and the light shafts to plan builder ``b``; returns the picture the
+        frame presents."""
         caps, layout, fmt = b.caps, b.layout, b.format
         quantities = self.role_quantities(b.graph_plan)
-        lo, hi = caps.drawn_point_size_range
-        point_size = setting("point_size", b.setting("point_size"))
-        fade = check_range("fade", self.fade, 0.0, hi)
-        # ES 2.0 promises no vertex texture units at all; each part of a read quantity, the
-        # order, and the shadow map with the sprite (its footprint there) take one. Without
-        # them (--vertex-fetch off, or auto on a context with none) the state is read back into
-        # vertex attributes each frame, as the points do; the features that read textures in
-        # the sprites' vertex shader (or draw the sprites again) need the fetch.
-        why = ("--vertex-fetch off" if b.setting("vertex_fetch") == "off"
-               else "this context has no vertex texture units")
         fetch = vertex_fetch(b)
-        if not fetch:
-            needs = [name for name, on in (("the depth sort", self.sort is not None),
-                                           ("the shadow map", self.shadow is not None),
-                                           ("the lamp", self.lamp is not None),
-                                           ("light shafts", self.shafts is not None)) if on]
-            if needs:
-                raise CapabilityError(f"{why}: {' and '.join(needs)} of this scene's sprites read "
-                                      "textures in their vertex shader, which needs vertex "
-                                      "texture fetch (switch them off where the scene offers "
-                                      "it: --sort off, --shadows off, --shafts off)")
-        needed = (sum(q.parts(fmt) for q in quantities.values()) + (self.sort is not None)
-                  + 2 * (self.shadow is not None))
-        if fetch and needed > caps.max_vertex_texture_units:
-            raise CapabilityError(f"the sprites' vertex shader samples {needed} textures; this "
-                                  f"context allows {caps.max_vertex_texture_units} "
-                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS): leave out sorting or "
-                                  "shadows, or store the state in a float format (one texture "
-                                  "per quantity)")
-        size = b.size
-        # Sizes are pixels of an image 1024 high and scale with the image, so a small animation
-        # shows the same picture as the still.
-        pixel_size = point_size * size[1] / 1024
-        a, b_, c = (float(v) for v in self.attenuation)
+        self._check_fetch(b, fetch, quantities)
+        pixel_size = setting("point_size", b.setting("point_size")) * b.size[1] / 1024
         texture = sprite_image(self.sprite)
         h, w = texture.shape[:2]
         # Not flipped: gl_PointCoord's t = 0 is the top of the point, where the image's first
         # row belongs (meshes' textures are flipped: their v = 0 is the bottom).
         b.resource(Resource("sprite", "image", (w, h), "rgba8", linear=True, data=texture,
                             what="the sprite texture"))
-        defines = {} if self.growth == 1 else {"GROWTH": None}
-        defines.update({ROLES[role][2]: None for role in self.roles if ROLES[role][2]})
-        inputs = {"u_sprite": Ref("sprite")}
-        uniforms = {"u_attenuation": (a, b_, c), "u_fade": float(fade),
-                    "u_opacity": float(self.opacity),
-                    "u_tint": tuple(float(v) for v in self.tint)}
-        if self.growth != 1:
-            uniforms["u_growth"] = float(self.growth)
-        if "heading" in self.roles:  # a screen direction's pixels: x times the aspect
-            uniforms["u_aspect"] = float(b.size[0] / b.size[1])
-        # A buffer of their own at a lower resolution draws the sprites at its own scale.
-        buffered = self.soft > 0 or self.buffer_scale < 1
-        drawn_pixels = pixel_size * float(self.buffer_scale)
-        frame = {"u_view_projection": ("view_projection",), "u_eye": ("eye",),
-                 "u_size": ("sprite_size", drawn_pixels, float(self.size_spread))}
-        if self.size_law == "jogl":  # one size a frame, from the camera: no attenuation
-            uniforms["u_attenuation"] = (1.0, 0.0, 0.0)
-            frame["u_size"] = ("jogl_sprite_size", drawn_pixels, float(self.size_spread),
-                               *map(float, self.law_anchor), float(self.law_distance))
+        # A buffer of their own: soft sprites take one at the picture's resolution.
+        buffer = self.buffer or (SpriteBuffer() if self.soft is not None else None)
+        draw = self._draw(b, quantities, fetch, pixel_size, buffer)
         # The light shafts' occluders draw the same sprites in texel order (the multiply blend
         # needs no order), unshadowed.
-        occluder = (dict(defines), dict(inputs), dict(uniforms), dict(frame), pixel_size)
-        vertices = None
-        order = "texel order"
+        occluder = draw.copy()
         if self.sort is not None:
-            network = plan_sort(b, b.graph_plan.quantities[self.roles["position"]],
-                                None if self.sort == "full" else int(self.sort))
-            defines.update(network.defines(), SORTED=None)
-            inputs["u_order"] = Ref("order")
-            vertices = b.vertex_data(Vertices("slots", "texels", layout.count, network.width,
-                                              network.height)).name
-            order = "back to front"
+            self.sort.attach(b, self, draw)
         else:
-            vertices = b.particle_texels()  # each sprite's texel: its hashed size, its state
+            draw.vertices = b.particle_texels()  # each sprite's texel: its hashed size, its state
             b.left_out.append("depth sort (switched off: texel order)")
         if self.shadow is not None:
-            per_focal = pixel_size / np.sqrt(c)
-            shadow_uniforms, light_focal = plan_shadow(b, self, per_focal)
-            defines["SHADOWED"] = None
-            inputs.update(u_shadow_map=Ref("shadow map"), u_shadow_sprite=Ref("sprite"))
-            uniforms.update(shadow_uniforms)
-            frame["u_light_size"] = ("light_size", per_focal, light_focal,
-                                     float(self.size_spread), size[1])
+            self.shadow.attach(b, self, draw)
         else:
             b.left_out.append("shadow map (switched off)")
-        own = {"u_eye": (0.0, 0.0, 1.0), "u_size": (pixel_size, self.size_spread, lo, hi),
-               "u_attenuation": (a, b_, c), "u_fade": float(fade)}
-        interface = stage_interface(tuple(quantities), quantities, fmt, own,
-                                    attributes=not fetch)
-        background = tuple(float(v) for v in self.background)
-        depth_texture = False
-        if buffered:
-            if self.scene_depth == "texture" and not caps.depth_texture:
-                raise CapabilityError("scene depth 'texture': this context cannot sample a depth "
-                                      "buffer (no OES_depth_texture); use packed (or auto)")
-            depth_texture = self.meshes and (self.scene_depth == "texture" or (
-                self.scene_depth == "auto" and caps.depth_texture))
-        b.resource(Resource("image", "target", size, "rgba8",
+        depth_texture = buffer is not None and (
+            self.soft or SoftParticles(0.0)).depth_texture(caps, self.meshes)
+        b.resource(Resource("image", "target", b.size, "rgba8",
                             depth="texture" if depth_texture else True, linear=True,
                             what="the picture, with its depth" + (
                                 " (a texture the sprites read)" if depth_texture else "")))
         if self.lamp is not None:
-            from .lamp import plan_lamp
-
-            per_focal = pixel_size / np.sqrt(c)
-            light_focal = self.lamp.camera().focal_pixels(self.lamp.size)
-            plan_lamp(b, self, ("light_size", per_focal, light_focal, float(self.size_spread),
-                                size[1]))
+            self.lamp.plan_scene(b, self, draw)
         else:
+            background = tuple(float(v) for v in self.background)
             plan_meshes(b, self.meshes, self.light, "image", (*background, 1.0))
         if fetch:
             how = f"vertex texture fetch of {', '.join(self.reads)}"
@@ -532,103 +416,126 @@ class Sprites(Rendering):
             texels = sum(q.parts(fmt) for q in quantities.values())
             how = (f"no vertex texture fetch: {', '.join(self.reads)} read back each frame and "
                    f"uploaded as vertex attributes ({texels} texture read{'s' * (texels > 1)})")
-        what = f"{layout.count} point sprites in {order}, {how}"
-        if buffered:
-            picture = self._plan_buffered(b, defines, interface,
-                                          {**self.role_inputs(interface), **inputs},
-                                          vertices, uniforms, frame, depth_texture, what)
+        draw.what = f"{layout.count} point sprites in {draw.order}, {how}"
+        if buffer is not None:
+            picture = plan_buffered(b, self, draw, buffer, self.soft, depth_texture)
         else:
-            picture = self._plan_direct(b, defines, interface, inputs, vertices, uniforms,
-                                        frame, what)
-        from .shafts import plan_shafts
-
+            picture = self._plan_direct(b, draw)
         return plan_shafts(b, self.shafts, picture,
                            self.lamp.position if self.lamp is not None else self.light,
-                           self.meshes, lambda target, clear: self._plan_occluders(
-                               b, interface, occluder, target, clear))
+                           self.meshes,
+                           lambda target, clear: self._plan_occluders(b, occluder, target, clear))
 
-    def _plan_occluders(self, b, interface, occluder, target, clear):
+    def _check_fetch(self, b, fetch, quantities):
+        """Refuse the features that read textures in the sprites' vertex shader (or draw the
+        sprites again) without vertex texture fetch, and more textures there than the context
+        allows."""
+        # ES 2.0 promises no vertex texture units at all; each part of a read quantity and
+        # each of a feature's textures take one. Without them (--vertex-fetch off, or auto on
+        # a context with none) the state is read back into vertex attributes each frame, as
+        # the points do.
+        caps = b.caps
+        features = [f for f in (self.sort, self.shadow, self.lamp, self.shafts) if f is not None]
+        if not fetch and features:
+            why = ("--vertex-fetch off" if b.setting("vertex_fetch") == "off"
+                   else "this context has no vertex texture units")
+            raise CapabilityError(f"{why}: {' and '.join(f.what for f in features)} of this "
+                                  "scene's sprites read textures in their vertex shader, which "
+                                  "needs vertex texture fetch (switch them off where the scene "
+                                  "offers it: --sort off, --shadows off, --shafts off)")
+        needed = (sum(q.parts(b.format) for q in quantities.values())
+                  + sum(f.vertex_textures for f in features))
+        if fetch and needed > caps.max_vertex_texture_units:
+            raise CapabilityError(f"the sprites' vertex shader samples {needed} textures; this "
+                                  f"context allows {caps.max_vertex_texture_units} "
+                                  "(GL_MAX_VERTEX_TEXTURE_IMAGE_UNITS): leave out sorting or "
+                                  "shadows, or store the state in a float format (one texture "
+                                  "per quantity)")
+
+    def _draw(self, b, quantities, fetch, pixel_size, buffer):
+        """The sprites' draw before any feature changes it: their shader's defines, samplers,
+        uniforms and frame values, and its interface to the state."""
+        lo, hi = b.caps.drawn_point_size_range
+        fade = check_range("fade", self.fade, 0.0, hi)
+        a, b_, c = (float(v) for v in self.attenuation)
+        defines = {} if self.growth == 1 else {"GROWTH": None}
+        defines.update({ROLES[role][2]: None for role in self.roles if ROLES[role][2]})
+        uniforms = {"u_attenuation": (a, b_, c), "u_fade": float(fade),
+                    "u_opacity": float(self.opacity),
+                    "u_tint": tuple(float(v) for v in self.tint)}
+        if self.growth != 1:
+            uniforms["u_growth"] = float(self.growth)
+        if "heading" in self.roles:  # a screen direction's pixels: x times the aspect
+            uniforms["u_aspect"] = float(b.size[0] / b.size[1])
+        # A buffer at a lower resolution draws the sprites at its own scale.
+        drawn_pixels = pixel_size * float(buffer.scale if buffer is not None else 1.0)
+        frame = {"u_view_projection": ("view_projection",), "u_eye": ("eye",),
+                 "u_size": ("sprite_size", drawn_pixels, float(self.size_spread))}
+        if self.size_law == "jogl":  # one size a frame, from the camera: no attenuation
+            uniforms["u_attenuation"] = (1.0, 0.0, 0.0)
+            frame["u_size"] = ("jogl_sprite_size", drawn_pixels, float(self.size_spread),
+                               *map(float, self.law_anchor), float(self.law_distance))
+        own = {"u_eye": (0.0, 0.0, 1.0), "u_size": (pixel_size, self.size_spread, lo, hi),
+               "u_attenuation": (a, b_, c), "u_fade": float(fade)}
+        interface = stage_interface(tuple(quantities), quantities, b.format, own,
+                                    attributes=not fetch)
+        return SpriteDraw(interface, defines, {"u_sprite": Ref("sprite")}, uniforms, frame,
+                          pixel_size)
+
+    def _plan_occluders(self, b, occluder, target, clear):
         """The sprites into the light shafts' occluders, at the picture's resolution: each
         multiplies the light passing by one less its opacity (``OCCLUDER``), behind the meshes
         hidden by their depth."""
-        defines, inputs, uniforms, frame, pixel_size = occluder
-        size = list(frame["u_size"])
-        size[1] = pixel_size  # the picture's size, not a smaller sprite buffer's
+        size = list(occluder.frame["u_size"])
+        size[1] = occluder.pixel_size  # the picture's size, not a smaller sprite buffer's
         b.stage(Stage(
             "shaft occluders: sprites", "shafts", "sprites/sprite.frag", "sprites/sprite.vert",
-            {**defines, "OCCLUDER": None}, vertex_interface=interface,
-            inputs={**self.role_inputs(interface), **inputs}, target=Ref(target),
-            vertices=b.particle_texels(), primitive="points", count=b.layout.count,
+            {**occluder.defines, "OCCLUDER": None}, vertex_interface=occluder.interface,
+            inputs={**self.role_inputs(occluder.interface), **occluder.inputs},
+            target=Ref(target), vertices=b.particle_texels(), primitive="points",
+            count=b.layout.count,
             state=DrawState(blend="multiply", depth_test=bool(self.meshes), depth_write=False,
                             point_size=True, sprites=True),
-            uniforms=uniforms, generated=generated_values(interface, b.layout),
-            frame_uniforms={**frame, "u_size": tuple(size)}, clear=clear,
+            uniforms=occluder.uniforms, generated=generated_values(occluder.interface, b.layout),
+            frame_uniforms={**occluder.frame, "u_size": tuple(size)}, clear=clear,
             what="each lets 1 - its opacity of the light through"))
 
-    def _plan_direct(self, b, defines, interface, inputs, vertices, uniforms, frame, what):
+    def _plan_direct(self, b, draw):
         """The sprites straight into the picture, depth-tested against the meshes."""
         layout, background = b.layout, tuple(float(v) for v in self.background)
         b.stage(Stage(
-            "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", defines,
-            vertex_interface=interface, inputs={**self.role_inputs(interface), **inputs},
-            attributes=self.role_attributes(interface),
-            target=Ref("image"), vertices=vertices, primitive="points", count=layout.count,
+            "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert", draw.defines,
+            vertex_interface=draw.interface,
+            inputs={**self.role_inputs(draw.interface), **draw.inputs},
+            attributes=self.role_attributes(draw.interface),
+            target=Ref("image"), vertices=draw.vertices, primitive="points", count=layout.count,
             state=DrawState(blend=self.blend, depth_test=True, depth_write=False,
                             point_size=True, sprites=True),
-            uniforms=uniforms, generated=generated_values(interface, layout),
-            frame_uniforms=frame, clear=None if self.meshes or self.lamp else (*background, 1.0),
-            what=what))
+            uniforms=draw.uniforms, generated=generated_values(draw.interface, layout),
+            frame_uniforms=draw.frame,
+            clear=None if self.meshes or self.lamp else (*background, 1.0), what=draw.what))
         return "image"
 
-    def _plan_buffered(self, b, defines, interface, inputs, vertices, uniforms, frame,
-                       depth_texture, what):
-        """The sprites into a buffer of their own (soft: fading into the scene behind them; at
-        ``buffer_scale`` of the picture's resolution), then laid over the picture by the
-        upsample stage into the picture that is presented."""
-        size, layout = b.size, b.layout
-        scene = {}
-        if self.meshes:
-            scene = {"SCENE_DEPTH": None, **({"SCENE_DEPTH_TEXTURE": None} if depth_texture
-                                            else {})}
-            if depth_texture:
-                depth = Ref("image", when="depth")
-            else:
-                depth = Ref("scene depth")
-                plan_depth_prepass(b, self.meshes, size)
-        w, h = (max(1, int(round(v * self.buffer_scale))) for v in size)
-        fmt = "rgba16f" if b.caps.blendable.get("rgba16f") else "rgba8"
-        b.resource(Resource("sprite buffer", "target", (w, h), fmt, linear=True,
-                            what=f"the sprites alone, premultiplied, at {self.buffer_scale:g} "
-                                 f"of the picture's resolution"))
-        # With no opaque scene behind them, nothing hides or softens the sprites.
-        planes = {"u_planes": ("depth_planes",)} if self.meshes else {}
-        depth_input = {"u_scene_depth": depth} if self.meshes else {}
-        soft = {"u_soft": max(float(self.soft), 1e-3),
-                "u_target_size": (float(w), float(h))} if self.meshes else {}
-        b.stage(Stage(
-            "sprites", "sprites", "sprites/sprite.frag", "sprites/sprite.vert",
-            {**defines, **({"SOFT": None} if self.meshes else {}), **scene},
-            vertex_interface=interface, attributes=self.role_attributes(interface),
-            inputs={**inputs, **depth_input}, target=Ref("sprite buffer"), vertices=vertices,
-            primitive="points", count=layout.count,
-            state=DrawState(blend=self.blend, point_size=True, sprites=True),
-            uniforms={**uniforms, **soft},
-            generated=generated_values(interface, layout), frame_uniforms={**frame, **planes},
-            clear=(0.0, 0.0, 0.0, 0.0),
-            what=what + (f", fading over {self.soft:g} m into the scene behind"
-                         if self.soft > 0 else ", hidden behind the scene")))
-        b.resource(Resource("picture", "target", size, "rgba8", linear=True,
-                            what="the picture with the sprites laid over it"))
-        bilateral = self.upsample == "bilateral" and self.meshes  # it follows the scene's depth
-        b.stage(Stage(
-            "upsample", "upsample", "sprites/upsample.frag",
-            defines={f"UPSAMPLE_{self.upsample.upper()}": None, **(scene if bilateral else {}),
-                     **({"ADDITIVE": None} if self.blend == "add" else {})},
-            inputs={"u_image": Ref("image"), "u_smoke": Ref("sprite buffer"),
-                    **(depth_input if bilateral else {})},
-            target=Ref("picture"),
-            uniforms={"u_smoke_size": (float(w), float(h)),
-                      **({"u_depth_falloff": 0.1} if bilateral else {})},
-            frame_uniforms=planes if bilateral else {},
-            what=f"{self.upsample} upsampling of the sprites' {w}x{h} buffer over the picture"))
-        return "picture"
+
+@dataclass
+class SpriteDraw:
+    """The sprites' draw as :class:`Sprites` and its features build it, before it is staged:
+    the shader's ``interface`` to the state, its ``defines``, samplers (``inputs``), uniforms
+    and ``frame`` values, the ``vertices`` it walks (the texels, or the sort's slots) in
+    ``order``, ``pixel_size`` (a sprite's size in the picture, pixels, where its factor is 1)
+    and what the plan says of it."""
+
+    interface: object
+    defines: dict
+    inputs: dict
+    uniforms: dict
+    frame: dict
+    pixel_size: float
+    vertices: str = None
+    order: str = "texel order"
+    what: str = ""
+
+    def copy(self):
+        """A copy whose mappings a feature may change without changing these."""
+        return replace(self, defines=dict(self.defines), inputs=dict(self.inputs),
+                       uniforms=dict(self.uniforms), frame=dict(self.frame))

@@ -17,17 +17,17 @@ from ..errors import ParameterError
 from ..frame.settings import Defaults
 from ..params import param
 from ..render.shadow import OpacityShadow
+from ..render.sort import SortParams
 from .base import Grip
 from .emitter import Emitter, EmitterParams, blend, eye, lifetimes, sprite, target
 
 HALF = 4.0  # x and z of the position range: [-4, 4]
 LOW, HIGH = -0.5, 7.5  # its y range: 8 m
-SORTS = ("full", "off")  # or a number of merge passes per frame (Latta's spreading)
 SHADOW = (0.0, 2.4, 0.0), 3.6  # the sphere (centre, radius) the shadow map's layers divide
 
 
 @dataclass(frozen=True)
-class SmokeParams(EmitterParams):
+class SmokeParams(SortParams, EmitterParams):
     """The smoke's parameters, SI units. ``tau`` is the particles' relaxation time (0: tracers
     that move with the air); ``gravity`` the acceleration besides the air's pull (up: buoyancy)."""
 
@@ -64,10 +64,6 @@ class SmokeParams(EmitterParams):
                          help="the light's position")
     shadows: str = param("on", choices=("on", "off"),
                          help="self-shadowing by an opacity shadow map")
-    sort: str = param("full", text=True, metavar="{full,off,N}",
-                      help="back-to-front order: full (the whole sorting network every frame), "
-                           "off (texel order), or N merge passes per frame (spread over "
-                           "frames, Latta 2004)")
     opacity: float = param(0.35, 0.0, 1.0, help="a sprite's opacity at its centre")
 
     def check(self):
@@ -76,14 +72,6 @@ class SmokeParams(EmitterParams):
             raise ParameterError("--size-law jogl needs --shadows off: the seed's law gives every "
                                  "sprite one size a frame, and a shadow map needs sprites that "
                                  "shrink with their distance")
-        if self.sort not in SORTS:
-            try:
-                passes = int(self.sort)
-            except ValueError:
-                passes = 0
-            if not 1 <= passes <= 10 ** 4 or str(passes) != self.sort.strip():
-                raise ParameterError(f"--sort must be full, off or a whole number of merge "
-                                     f"passes per frame in [1, 10000], got {self.sort!r}")
         reach = np.abs(self.sphere[:3]) + np.abs(self.sway[:3]) + self.sphere[3]
         if np.any(reach[[0, 2]] > HALF) or self.sphere[1] - self.sphere[3] - abs(self.sway[1]) < LOW \
                 or self.sphere[1] + self.sphere[3] + abs(self.sway[1]) > HIGH:
@@ -202,9 +190,8 @@ class Smoke(Emitter):
         if p.shadows == "on":  # OpacityShadow checks that the light is outside its sphere
             shadow = OpacityShadow(light=p.light, centre=SHADOW[0], radius=SHADOW[1],
                                    extinction=0.6, ambient=0.3)
-        sort = {"full": "full", "off": None}[p.sort] if p.sort in SORTS else int(p.sort)
         return {"size_spread": 0.35, "tint": (*p.colour, 1.0), "opacity": p.opacity,
-                "light": p.light, "background": (0.11, 0.12, 0.15), "sort": sort,
+                "light": p.light, "background": (0.11, 0.12, 0.15), "sort": p.depth_sort(),
                 "shadow": shadow, "growth": 2.5}
 
     def describe(self):

@@ -27,6 +27,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..render.camera import looking_at
+from ..render.sort import DepthSort
 from ..render.sprites import Sprites
 from .base import Scene
 
@@ -188,7 +189,7 @@ class Sph(Scene):
         floor = shapes.floor(1.2 * max(self.params.tank), cell=0.5)  # 0.5 m squares: the scale
         return Sprites(sprite="disc", size_spread=0.0,
                        attenuation=(0.0, 0.0, 1.0 / self._distance ** 2), blend="over",
-                       sort="full", tint=(0.2, 0.45, 0.95, 1.0), opacity=0.9, meshes=(floor,),
+                       sort=DepthSort(), tint=(0.2, 0.45, 0.95, 1.0), opacity=0.9, meshes=(floor,),
                        background=(0.02, 0.03, 0.05), roles={"position": "position"})
 
     @property

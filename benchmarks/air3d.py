@@ -2,7 +2,7 @@
 with the cells (issue 42's wind source).
 
 Run: ``python benchmarks/air3d.py`` (``--cells 16,32,48,64``, ``--repeats 3``, ``--quick``: 16
-and 24 cells a side).
+and 24 cells a side; ``--advection maccormack``: both carry by MacCormack's scheme).
 
 Ours: one step of ``run flame --source wind``'s plan (advection of the three face grids, the
 fire's carry and feed, the curl and its confinement, buoyancy, the divergence, 40 Jacobi
@@ -28,16 +28,16 @@ from es2particles.report.measure import median_time  # noqa: E402
 from es2particles.scenes.flame import Flame  # noqa: E402
 
 
-def ours(ctx, cells, repeats):
-    scene = Flame(source="wind", cells=cells)
+def ours(ctx, cells, repeats, advection):
+    scene = Flame(source="wind", cells=cells, advection=advection)
     with Pipeline(ctx, scene, size=(64, 64), steps=0) as pipeline:
         pipeline.begin(1)
         pipeline.step(30)  # a fire has risen: the feed and the flow are at work
         return median_time(lambda: pipeline.step(1), ctx.finish, repeats) * 1e3
 
 
-def numpy_peer(cells, repeats):
-    scene = Flame(source="wind", cells=cells)
+def numpy_peer(cells, repeats, advection):
+    scene = Flame(source="wind", cells=cells, advection=advection)
     air, p = scene.air, scene.params
     d, h, w = (cells,) * 3
     reference = ref.Air3(np.zeros((d, h, w), bool), air.lo, air.hi,
@@ -51,7 +51,7 @@ def numpy_peer(cells, repeats):
         u, v, w_, fire, _, pressure = ref.step(
             reference, state["u"], state["v"], state["w"], state["p"], state["fire"], p.dt,
             air.fire.keep, (0.0, 0.0, 0.0), (0.0, 1.0), 0, p.buoyancy, p.vorticity,
-            p.pressure_iterations)
+            p.pressure_iterations, maccormack=advection == "maccormack")
         state.update(u=u, v=v, w=w_, fire=fire, p=pressure)
     return median_time(step, lambda: None, repeats) * 1e3
 
@@ -61,13 +61,16 @@ def main(argv=None):
     parser.add_argument("--cells", default="16,32,48,64")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--advection", default="semi-lagrangian",
+                        choices=("semi-lagrangian", "maccormack"))
     args = parser.parse_args(argv)
     sides = [16, 24] if args.quick else [int(c) for c in args.cells.split(",")]
     rows = []
     with open_context() as ctx:
-        print(f"context: {ctx.caps.renderer}")
+        print(f"context: {ctx.caps.renderer}; {args.advection} advection")
         for cells in sides:
-            a, b = ours(ctx, cells, args.repeats), numpy_peer(cells, args.repeats)
+            a = ours(ctx, cells, args.repeats, args.advection)
+            b = numpy_peer(cells, args.repeats, args.advection)
             rows.append((cells, a, b))
             print(f"{cells}^3 cells: ours {a:.1f} ms a step, numpy {b:.1f} ms ({b / a:.2f}x)",
                   flush=True)

@@ -96,21 +96,46 @@ def wind_at(air, u, v, w, points):
                      sample(air, w, "w", points)], -1)
 
 
-def advect(air, u, v, w, dt):
-    out = []
-    for which, own, blocked in zip("uvw", (u, v, w), air.blocked()):
-        x = air.points(which, own.shape)
-        out.append(np.where(blocked, 0.0, sample(air, own, which,
-                                                 x - dt * wind_at(air, u, v, w, x))))
-    return out
+def corners(air, field, moved):
+    """The least and the greatest of the 8 values of ``field`` among which each of its points
+    lands when moved by ``moved`` (..., 3 world units): its own index less the move in cells,
+    so a still point's are its own and the next ones (edge values extended)."""
+    index = np.stack(np.meshgrid(*(np.arange(n) for n in field.shape[:3]),
+                                 indexing="ij")[::-1], -1)  # (i, j, k) of [k, j, i]
+    i0 = np.floor(index + moved / np.asarray(air.cell)).astype(int)
+    values = [clamped(field, i0[..., 2] + oz, i0[..., 1] + oy, i0[..., 0] + ox)
+              for ox in (0, 1) for oy in (0, 1) for oz in (0, 1)]
+    return np.min(values, axis=0), np.max(values, axis=0)
 
 
-def carry(air, fire, u, v, w, dt, keep):
+def carried(air, field, which, wind, hold, maccormack):
+    """``field`` (grid ``which``) carried a step along ``wind`` (a function of world points):
+    from where it was, field(x - dt u(x)); by MacCormack's scheme, that value corrected by half
+    the error of carrying it back, ahead + (field - behind) / 2, limited to the 8 values the
+    backtrace falls among. ``hold``: where the values are 0 at every stage."""
+    x = air.points(which, field.shape[:3])
+    back, forth = x - wind(x), x + wind(x)
+    ahead = np.where(hold, 0.0, sample(air, field, which, back))
+    if not maccormack:
+        return ahead
+    behind = np.where(hold, 0.0, sample(air, ahead, which, forth))
+    lo, hi = corners(air, field, back - x)
+    return np.where(hold, 0.0, np.clip(ahead + 0.5 * (field - behind), lo, hi))
+
+
+def advect(air, u, v, w, dt, maccormack=False):
+    def wind(x):
+        return dt * wind_at(air, u, v, w, x)
+    return [carried(air, own, which, wind, blocked, maccormack)
+            for which, own, blocked in zip("uvw", (u, v, w), air.blocked())]
+
+
+def carry(air, fire, u, v, w, dt, keep, maccormack=False):
     """The fire carried from where it was a step ago, keeping ``keep`` of itself (the burner's
     feed is checked apart: it is noise)."""
-    x = air.points("c", air.shape)
-    moved = sample(air, fire, "c", x - dt * wind_at(air, u, v, w, x)) * np.asarray(keep)
-    return np.where(air.solid[..., None], 0.0, moved)
+    def wind(x):
+        return dt * wind_at(air, u, v, w, x)
+    return carried(air, fire, "c", wind, air.solid[..., None], maccormack) * np.asarray(keep)
 
 
 def clamped(field, k, j, i):
@@ -225,10 +250,10 @@ def project(air, u, v, w, p):
 
 
 def step(air, u, v, w, p, fire, dt, keep, force, gusts, step_number, buoyancy, vorticity,
-         iterations, warm=1.0):
+         iterations, warm=1.0, maccormack=False):
     """One step of the 3D air: (u, v, w, fire, divergence, pressure) after it."""
-    moved = carry(air, fire, u, v, w, dt, keep)
-    u1, v1, w1 = advect(air, u, v, w, dt)
+    moved = carry(air, fire, u, v, w, dt, keep, maccormack)
+    u1, v1, w1 = advect(air, u, v, w, dt, maccormack)
     u2, v2, w2 = forces(air, u1, v1, w1, moved, dt, force, gusts, step_number, buoyancy,
                         vorticity)
     div = divergence(air, u2, v2, w2)

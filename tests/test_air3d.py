@@ -27,14 +27,15 @@ def solid():
     return out
 
 
-def air(burner=(0.0, -5.0, 0.0, 0.1)):
+def air(burner=(0.0, -5.0, 0.0, 0.1), advection="semi-lagrangian"):
     """The scene's Air (its burner out of the box by default: the carry alone) and the
     reference's."""
     s = STEP
     declared = Air(SHAPE, LO, HI, s["dt"], 4.0, WALLS, solid=solid(),
                    pressure_iterations=s["iterations"], warm_start=s["warm"],
                    vorticity=s["vorticity"], force=s["force"], gusts=s["gusts"],
-                   fire=Fire(burner, keep=s["keep"], buoyancy=s["buoyancy"]))
+                   fire=Fire(burner, keep=s["keep"], buoyancy=s["buoyancy"]),
+                   advection=advection)
     return declared, ref.Air3(solid(), LO, HI, WALLS)
 
 
@@ -76,29 +77,35 @@ def gpu_step(ctx, declared, fmt, faces, pressure, fire, step):
     return squeeze, {q: a[..., 0] if a.shape[-1] == 1 else a for q, a in after.items()}
 
 
-def reference_step(reference, stored):
+def reference_step(reference, stored, advection="semi-lagrangian"):
     s = STEP
     return ref.step(reference, stored["u"], stored["v"], stored["w"], stored["pressure"],
                     stored["fire"], s["dt"], s["keep"], s["force"], s["gusts"], s["step"],
-                    s["buoyancy"], s["vorticity"], s["iterations"], s["warm"])
+                    s["buoyancy"], s["vorticity"], s["iterations"], s["warm"],
+                    maccormack=advection == "maccormack")
 
 
+@pytest.mark.parametrize("advection", ["semi-lagrangian", "maccormack"])
 @pytest.mark.parametrize("fmt", ["rgba32f", "rgba16f", "rgba8"])
-def test_one_3d_step_matches_float64(gl, fmt):
+def test_one_3d_step_matches_float64(gl, fmt, advection):
     """The faces' error as a share of max |u|, against the format's bound, as the 2D wind's
     test derives it: float32 arithmetic; half floats' 11-bit significand on each of a face's
-    three writes plus k pressure writes through the gradient (/dx); RGBA8's half code on each
-    write likewise. The fire (one write) within its own format's rounding of [0, 1]."""
-    declared, reference = air()
+    writes (three; MacCormack's ahead and behind are two more) plus k pressure writes through
+    the gradient (/dx); RGBA8's half code on each write likewise. The fire within its own
+    format's rounding of [0, 1]: one write, or MacCormack's three (the correction adds the
+    ahead's error, half the behind's, which holds the ahead's again, and its own)."""
+    declared, reference = air(advection=advection)
     stored, got = gpu_step(gl, declared, fmt, *start(reference), STEP["step"])
     want = dict(zip(("u", "v", "w", "fire", "divergence", "pressure"),
-                    reference_step(reference, stored)))
+                    reference_step(reference, stored, advection)))
     error = np.concatenate([(got[c] - want[c]).ravel() for c in "uvw"])
     scale = max(np.abs(want[c]).max() for c in "uvw")
     k, dx = STEP["iterations"], min(reference.cell)
+    writes = 3 if advection == "semi-lagrangian" else 5
     bound = {"rgba32f": 2 ** -18 * scale,
-             "rgba16f": 3 * 2 ** -10 * scale + k * 2 ** -10 * np.abs(want["pressure"]).max() / dx,
-             "rgba8": 3 * 4.0 * CODE + k * declared.pressure_reach * CODE / dx}[fmt]
+             "rgba16f": (writes * 2 ** -10 * scale
+                         + k * 2 ** -10 * np.abs(want["pressure"]).max() / dx),
+             "rgba8": writes * 4.0 * CODE + k * declared.pressure_reach * CODE / dx}[fmt]
     print(f"{fmt}: max |u - u64| = {np.abs(error).max():.3e} ({np.abs(error).max() / scale:.2e} "
           f"of max |u| {scale:.2f}), bound {bound:.3e}; mean {error.mean():.2e}")
     assert np.abs(error).max() <= bound
@@ -110,8 +117,28 @@ def test_one_3d_step_matches_float64(gl, fmt):
     # one write: float32's rounding; a half float's unit in [0.5, 1) (llvmpipe truncates);
     # half a code of [0, 1] each way, from the write and from the stored start's reads
     fire_bound = {"rgba32f": 2 ** -20, "rgba16f": 2 ** -11 + 2 ** -20, "rgba8": CODE}[fmt]
+    fire_bound *= 1 if advection == "semi-lagrangian" else 3
     print(f"{fmt}: max |fire - fire64| = {fire_error:.3e}, bound {fire_bound:.3e}")
     assert fire_error <= fire_bound
+
+
+def test_maccormack_s_limiter_takes_a_still_axis_own_cells(gl):
+    """Air still along y (v = 0, u and w not) over a fire of noise, whose corrections the limiter
+    cuts: the cells it takes are found as each cell's own index less its move, so
+    on the still axis they are its own and the next (the reference's), not the row below where
+    the backtrace's world point rounds under a grid line."""
+    declared, reference = air(advection="maccormack")
+    faces, pressure, _ = start(reference)
+    faces[1] = np.zeros_like(faces[1])
+    fire = np.random.default_rng(5).uniform(0.0, 1.0, reference.shape + (2,))
+    stored, got = gpu_step(gl, declared, "rgba32f", faces, pressure, fire, STEP["step"])
+    want = reference_step(reference, stored, "maccormack")[3]
+    semi = reference_step(reference, stored)[3]
+    error = np.abs(got["fire"] - want).max()
+    print(f"max |fire - fire64| = {error:.2e}; MacCormack moved it by up to "
+          f"{np.abs(want - semi).max():.2f} from the semi-Lagrangian")
+    assert np.abs(want - semi).max() > 0.1  # the correction acts, and the limiter with it
+    assert error <= 3 * 2 ** -20
 
 
 def test_the_burner_feeds_the_fire_within_its_flicker(gl):

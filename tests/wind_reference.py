@@ -100,8 +100,9 @@ def maccormack(air, u, v, dt):
         ahead = np.where(blocked, 0.0, sample(air, own, which, x - dt * wind))
         behind = np.where(blocked, 0.0, sample(air, ahead, which, x + dt * wind))
         h, w = own.shape
-        g = (x - dt * wind - np.asarray(air.origin(which))) / np.asarray(air.cell)
-        i = np.floor(g).astype(int)
+        # the backtrace in cells: the face's own index less the step's move (exact when still)
+        index = np.stack(np.meshgrid(np.arange(w), np.arange(h)), -1)
+        i = np.floor(index - dt * wind / np.asarray(air.cell)).astype(int)
         corners = [own[np.clip(i[..., 1] + oy, 0, h - 1), np.clip(i[..., 0] + ox, 0, w - 1)]
                    for ox, oy in ((0, 0), (1, 0), (0, 1), (1, 1))]
         value = np.clip(ahead + 0.5 * (own - behind), np.min(corners, 0), np.max(corners, 0))

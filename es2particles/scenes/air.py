@@ -84,8 +84,8 @@ class Air:
     obstacles hold, (H, W) or (D, H, W) booleans (None: none). ``max_speed``: the velocity's
     range, +-m/s. ``force``: the body force (m/s^2, one number an axis), varying as 1 +
     ``gusts`` amplitude sin(2 pi t / period); ``drag``: the pointer's (x, y, vx, vy, radius),
-    2D only. ``fire``: a :class:`Fire` the air carries (3D only). Viscosity, MacCormack
-    advection and moving walls are 2D only."""
+    2D only. ``fire``: a :class:`Fire` the air carries (3D only), by the same ``advection`` as
+    the velocity. Viscosity and moving walls are 2D only."""
 
     shape: tuple
     lo: tuple
@@ -116,10 +116,9 @@ class Air:
         if self.advection not in ADVECTIONS:
             raise ParameterError(f"advection must be one of {', '.join(ADVECTIONS)}, got "
                                  f"{self.advection!r}")
-        if d == 3 and (self.viscosity > 0 or self.advection != "semi-lagrangian"
-                       or 3.0 in self.walls):
-            raise ParameterError("viscosity, MacCormack advection and moving walls are the "
-                                 "2D wind's: the 3D air takes none of them")
+        if d == 3 and (self.viscosity > 0 or 3.0 in self.walls):
+            raise ParameterError("viscosity and moving walls are the 2D wind's: the 3D air "
+                                 "takes neither")
         if (self.fire is not None) != (d == 3):
             raise ParameterError("a fire is carried by the 3D air, and only there")
 
@@ -227,11 +226,20 @@ class Air:
                         define="CORRECT")
         if self.fire is not None:
             f = self.fire
-            g.quantity("fire", 0.0, 1.0, components=2, domain=air, clamps="none")
-            air_pass("carry", "fire", [], {"u_dt": dt, "u_keep": tuple(map(float, f.keep)),
-                                           "u_feed": tuple(map(float, f.feed)),
-                                           "u_burner": tuple(map(float, f.burner))},
-                     ("CARRY",), reads=("fire",) + components)
+            carry = {"u_dt": dt, "u_keep": tuple(map(float, f.keep)),
+                     "u_feed": tuple(map(float, f.feed)), "u_burner": tuple(map(float, f.burner))}
+            maccormack = self.advection == "maccormack"
+            for name in ("fire",) + ("fire_ahead", "fire_behind") * maccormack:
+                g.quantity(name, 0.0, 1.0, components=2, domain=air, clamps="none")
+            if not maccormack:
+                air_pass("carry", "fire", [], carry, ("CARRY",), reads=("fire",) + components)
+            else:
+                air_pass("fire_ahead", "fire_ahead", [], {"u_dt": dt}, ("FIRE_AHEAD",),
+                         reads=("fire",) + components)
+                air_pass("fire_behind", "fire_behind", ["fire_ahead"], {"u_dt": dt},
+                         ("FIRE_BEHIND",), reads=components)
+                air_pass("carry", "fire", ["fire_ahead", "fire_behind"], carry,
+                         ("CARRY", "CORRECT"), reads=("fire",) + components)
         force = {"u_dt": dt, "u_force": tuple(map(float, self.force or (0.0,) * d)),
                  "u_gusts": tuple(map(float, self.gusts))}
         more, reads_force = [], ["{c}"]

@@ -27,7 +27,7 @@ from ..frame.settings import Defaults
 from ..params import param
 from ..render.flame import MAX_STEPS, Flame as FlameRendering, flame_light
 from ..render.shafts import ShaftParams
-from .air import WALL_KINDS, Air, Fire
+from .air import ADVECTIONS, WALL_KINDS, Air, Fire
 from .base import Scene, clamp_report
 from .emitter import CAMERAS, camera_of, eye, target
 
@@ -35,7 +35,8 @@ SOURCES = ("noise", "smoke", "wind")
 # The parameters only some sources use: each given with another source is refused in one line.
 USED_BY = {"shape": ("noise",), "rise": ("noise",), "cells": ("smoke", "wind"),
            "burner": ("wind",), "buoyancy": ("wind",), "cooling": ("wind",),
-           "vorticity": ("wind",), "pressure_iterations": ("wind",), "max_speed": ("wind",)}
+           "vorticity": ("wind",), "pressure_iterations": ("wind",), "max_speed": ("wind",),
+           "advection": ("wind",)}
 # The wind flame's air: open at the top, slip walls elsewhere (x0, x1, y0, y1, z0, z1); with
 # open sides strong confinement grew sooner at their edges, where air is drawn in.
 WIND_WALLS = tuple(WALL_KINDS["open" if side == 3 else "slip"] for side in range(6))
@@ -94,6 +95,11 @@ class FlameParams(ShaftParams):
                                           "a step")
     max_speed: float = param(8.0, 1e-3, 1e3, unit="m/s",
                              help="the wind flame's air speed range: faster air is clamped")
+    advection: str = param("semi-lagrangian", choices=ADVECTIONS,
+                           help="how the wind flame's air carries itself and its fire: "
+                                "semi-Lagrangian (one trilinear backtrace) or MacCormack "
+                                "(ahead, behind, a correction limited to the 8 values around "
+                                "the backtrace: less numerical diffusion)")
     # the flame is a bright light, its whole body the shafts' source: a quarter of the sky's
     shaft_exposure: float = param(0.05, 0.0, 10.0, help="the shafts' brightness")
     camera: str = param("fixed", choices=CAMERAS,
@@ -145,7 +151,8 @@ class Flame(Scene):
             keep = (float(np.exp(-fading * p.dt)), float(np.exp(-cooling * p.dt)))
             self.air = Air((p.cells,) * 3, lo, hi, p.dt, p.max_speed, WIND_WALLS,
                            pressure_iterations=p.pressure_iterations, vorticity=p.vorticity,
-                           fire=Fire(p.burner, keep=keep, buoyancy=p.buoyancy))
+                           fire=Fire(p.burner, keep=keep, buoyancy=p.buoyancy),
+                           advection=p.advection)
             self.defaults = Defaults(0, 1.0, WIND_STEPS, "dither")
 
     @classmethod

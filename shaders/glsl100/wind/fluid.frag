@@ -11,10 +11,12 @@
 //
 // DIMENSIONS 3: the same on W x H x D cells (3D grids, atlases of slices): w on the z faces,
 // W x H x (D + 1), Z_FACES; the divergence, the 7-point Poisson equation, the curl (a vector)
-// and its confinement take the third axis; u_walls_z: the back and front sides' kinds. Viscosity,
-// MacCormack advection, moving walls and the pointer's drag are the 2D scene's alone. CARRY
-// carries the fire (density, temperature) at the air's centres and feeds it at a burner;
-// BUOYANCY lifts the y faces by its temperature (the flame's wind source, scenes/flame.py).
+// and its confinement take the third axis; u_walls_z: the back and front sides' kinds; MacCormack's
+// limiter, the 8 values around a backtrace. Viscosity, moving walls and the pointer's drag are
+// the 2D scene's alone. CARRY carries the fire (density, temperature) at the air's centres and
+// feeds it at a burner (by MacCormack's scheme: FIRE_AHEAD, FIRE_BEHIND, then CARRY with
+// CORRECT); BUOYANCY lifts the y faces by its temperature (the flame's wind source,
+// scenes/flame.py).
 //
 // A face is blocked (its texture u_xblocked / u_yblocked: r > 0.5) where it lies on a closed
 // wall or beside an obstacle: its velocity is 0. u_walls: each side's kind (left, right, bottom,
@@ -30,23 +32,32 @@
 #define DIMENSIONS 2
 #endif
 #if DIMENSIONS == 3
-#if defined(VISCOSITY) || defined(HOLD) || defined(AHEAD) || defined(BEHIND) || defined(CORRECT)
-#error "viscosity and MacCormack advection are the 2D wind's (scenes/air.py refuses them in 3D)"
+#if defined(VISCOSITY) || defined(HOLD)
+#error "viscosity is the 2D wind's (scenes/air.py refuses it in 3D)"
 #endif
 #define vecd vec3
 #define EX vec3(1.0, 0.0, 0.0)
 #define EY vec3(0.0, 1.0, 0.0)
 #define EZ vec3(0.0, 0.0, 1.0)
+#define CORNERS 8
+#define OWN_LO OWN_CORNER_LO
+#define OWN_HI OWN_CORNER_HI
 #else
-#if defined(CARRY) || defined(Z_FACES)
+#if defined(CARRY) || defined(FIRE_AHEAD) || defined(FIRE_BEHIND) || defined(Z_FACES)
 #error "the fire and the z faces are the 3D air's (DIMENSIONS 3)"
 #endif
 #define vecd vec2
 #define EX vec2(1.0, 0.0)
 #define EY vec2(0.0, 1.0)
+#define CORNERS 4
 #define OWN_LO OWN_BOX.xy
 #define OWN_HI OWN_BOX.zw
 #endif
+
+// What a carrying pass moves (the velocity component of its faces, or the fire), and where it
+// is held at 0 (a blocked face, a solid cell).
+#define OWN_TYPE float
+#define HELD(c) blocked(c)
 
 #ifdef X_FACES
 #define OWN_BLOCKED u_xblocked
@@ -58,6 +69,8 @@
 #define held_own_at u_held_at
 #define OWN_SIZE u_xfaces_size
 #define OWN_BOX u_xfaces_box
+#define OWN_CORNER_LO u_xfaces_lo
+#define OWN_CORNER_HI u_xfaces_hi
 #define OWN_UV xfaces_uv
 #define AXIS x
 #endif
@@ -71,6 +84,8 @@
 #define held_own_at v_held_at
 #define OWN_SIZE u_yfaces_size
 #define OWN_BOX u_yfaces_box
+#define OWN_CORNER_LO u_yfaces_lo
+#define OWN_CORNER_HI u_yfaces_hi
 #define OWN_UV yfaces_uv
 #define AXIS y
 #endif
@@ -78,9 +93,28 @@
 #define OWN_BLOCKED u_zblocked
 #define own_at w_at
 #define sample_own sample_w
+#define ahead_own_at w_ahead_at
+#define sample_ahead_own sample_w_ahead
+#define behind_own_at w_behind_at
 #define OWN_SIZE u_zfaces_size
+#define OWN_CORNER_LO u_zfaces_lo
+#define OWN_CORNER_HI u_zfaces_hi
 #define OWN_UV zfaces_uv
 #define AXIS z
+#endif
+#if defined(FIRE_AHEAD) || defined(FIRE_BEHIND) || defined(CARRY)
+#undef OWN_TYPE
+#undef HELD
+#define OWN_TYPE vec2
+#define HELD(c) solid(c)
+#define own_at fire_at
+#define sample_own sample_fire
+#define ahead_own_at fire_ahead_at
+#define sample_ahead_own sample_fire_ahead
+#define behind_own_at fire_behind_at
+#define OWN_SIZE u_air_size
+#define OWN_CORNER_LO u_air_lo
+#define OWN_CORNER_HI u_air_hi
 #endif
 
 #ifdef OWN_BLOCKED
@@ -97,7 +131,7 @@ bool solid(vecd cell)
 }
 #endif
 
-#if defined(ADVECT) || defined(AHEAD) || defined(BEHIND) || defined(CORRECT) || defined(CARRY)
+#if defined(ADVECT) || defined(AHEAD) || defined(BEHIND) || defined(CORRECT) || defined(CARRY) || defined(FIRE_AHEAD) || defined(FIRE_BEHIND)
 // The wind at a world point: u from the x faces, v from the y faces (w from the z faces), each
 // bilinear (trilinear).
 vecd wind_sample(vecd x)
@@ -195,6 +229,28 @@ vec2 confinement(vec2 c)
 }
 #endif
 
+#ifdef CORRECT
+// MacCormack's correction at c, whose point is x: ahead + (own - behind) / 2, limited to the
+// values the backtrace from x lands among (4 faces or cells in 2D, 8 in 3D), found as c less
+// the step's displacement in cells: where the air is still, exactly c's own.
+OWN_TYPE corrected(vecd c, vecd x)
+{
+    vecd i = floor(c - u_dt * wind_sample(x) * OWN_SIZE / (OWN_HI - OWN_LO));
+    OWN_TYPE lo = own_at(i), hi = lo;
+    for (int k = 1; k < CORNERS; k++) {
+        float f = float(k);
+#if DIMENSIONS == 3
+        OWN_TYPE value = own_at(i + vec3(mod(f, 2.0), mod(floor(f / 2.0), 2.0), floor(f / 4.0)));
+#else
+        OWN_TYPE value = own_at(i + vec2(mod(f, 2.0), floor(f / 2.0)));
+#endif
+        lo = min(lo, value);
+        hi = max(hi, value);
+    }
+    return clamp(ahead_own_at(c) + 0.5 * (own_at(c) - behind_own_at(c)), lo, hi);
+}
+#endif
+
 #ifdef CARRY
 #include "lib/noise.glsl"
 #endif
@@ -202,25 +258,19 @@ vec2 confinement(vec2 c)
 void main()
 {
     vecd c = grid_cell();
-#if defined(ADVECT) || defined(AHEAD)
-    // the velocity arriving here along the flow: own(x - dt u(x)), bilinear
+#if defined(ADVECT) || defined(AHEAD) || defined(FIRE_AHEAD)
+    // the velocity (the fire) arriving here along the flow: own(x - dt u(x)), bi-(tri)linear
     vecd x = grid_point();
-    write(blocked(c) ? 0.0 : sample_own(x - u_dt * wind_sample(x)));  // or the ahead field
+    write(HELD(c) ? OWN_TYPE(0.0) : sample_own(x - u_dt * wind_sample(x)));  // or the ahead
 #endif
-#ifdef BEHIND
+#if defined(BEHIND) || defined(FIRE_BEHIND)
     // the ahead field carried back: ahead(x + dt u(x))
-    vec2 x = grid_point();
-    write(blocked(c) ? 0.0 : sample_ahead_own(x + u_dt * wind_sample(x)));
+    vecd x = grid_point();
+    write(HELD(c) ? OWN_TYPE(0.0) : sample_ahead_own(x + u_dt * wind_sample(x)));
 #endif
-#ifdef CORRECT
-    // MacCormack: ahead + (own - behind) / 2, limited to the four faces the backtrace lands among
-    vec2 x = grid_point();
-    vec2 g = (x - u_dt * wind_sample(x) - OWN_LO) / (OWN_HI - OWN_LO) * OWN_SIZE - 0.5;
-    vec2 i = floor(g);
-    float a = own_at(i), b = own_at(i + vec2(1.0, 0.0));
-    float e = own_at(i + vec2(0.0, 1.0)), f = own_at(i + vec2(1.0, 1.0));
-    float value = ahead_own_at(c) + 0.5 * (own_at(c) - behind_own_at(c));
-    write(blocked(c) ? 0.0 : clamp(value, min(min(a, b), min(e, f)), max(max(a, b), max(e, f))));
+#if defined(CORRECT) && !defined(CARRY)
+    vecd x = grid_point();
+    write(blocked(c) ? 0.0 : corrected(c, x));
 #endif
 #if defined(CURL) && DIMENSIONS == 3
     // at air cell centres, from the wind there: (dw/dy - dv/dz, du/dz - dw/dx, dv/dx - du/dy)
@@ -326,11 +376,15 @@ void main()
 #endif
 #ifdef CARRY
     // the fire (density, temperature) arriving here along the flow, fire(x - dt u(x)),
-    // trilinear, each part keeping u_keep of itself a step (it fades and cools); fed at the
+    // trilinear (or MacCormack's correction of it), each part keeping u_keep of itself a step (it fades and cools); fed at the
     // burner, a flat ball at u_burner.xyz of radius u_burner.w (half as high), where each rises
     // to u_feed flickering by noise, up to 0.7 of it, that drifts with time (its puffs).
     vecd x = grid_point();
+#ifdef CORRECT
+    vec2 fire = corrected(c, x) * u_keep;
+#else
     vec2 fire = sample_fire(x - u_dt * wind_sample(x)) * u_keep;
+#endif
     vecd r = (x - u_burner.xyz) / (u_burner.w * vec3(1.0, 0.5, 1.0));
     float inside = 1.0 - smoothstep(0.7, 1.0, length(r));
     float flicker = 1.0 - 0.7 * (0.5 + 0.5 * simplex3(vec3(2.5 * x.xz, u_step * u_dt * 4.0)).w);

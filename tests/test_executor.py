@@ -375,8 +375,8 @@ def test_executor_runs_a_plan_it_is_given(recording):
 
 def test_a_renderer_takes_only_the_settings_its_rendering_uses(recording):
     """A renderer draws someone else's simulation: the particles, format, steps and seed are
-    the simulation's, so giving one is refused, as is a bad value of a setting it uses, before
-    anything is drawn."""
+    the simulation's, so giving one is refused, as is a bad value of a setting it uses and an
+    accumulation (its samples would step the simulation), before anything is drawn."""
     from es2particles.errors import Es2ParticlesError
     from es2particles.frame.pipeline import Renderer
     from es2particles.render.points import Density
@@ -387,6 +387,10 @@ def test_a_renderer_takes_only_the_settings_its_rendering_uses(recording):
             Renderer(recording, scene.rendering(), sim, size=(32, 32), particles=128)
         with pytest.raises(ParameterError, match="gradient 'rainbowish' is unknown"):
             Renderer(recording, Density(scene.view), sim, size=(32, 32), gradient="rainbowish")
+        # an accumulated image's samples are steps, which only the simulation's owner takes
+        with pytest.raises(ParameterError, match="accumulate 4: a renderer over a simulation "
+                                                 "does not step it"):
+            Renderer(recording, Density(scene.view), sim, size=(32, 32), accumulate=4)
         renderer = Renderer(recording, Density(scene.view), sim, size=(32, 32), exposure=2.0)
     with pytest.raises(Es2ParticlesError, match="the Simulation this Renderer draws was "
                                                 "released"):

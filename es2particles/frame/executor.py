@@ -242,8 +242,8 @@ class Executor:
         """Run the frame's stages (or ``stages``) in order for ``frame`` (a :class:`Frame`),
         each of its ``samples`` (an accumulating stage: a step with the sample's uniforms before
         each draw after the first, the plain frame's set again after); returns the presented
-        texture. The one place a frame is drawn: Pipeline, its live views and the cluster's
-        shares draw through it, and the page's executor.js mirrors it."""
+        texture. The one place a frame is drawn: Pipeline, its live views, the Renderer and the
+        cluster's shares draw through it, and the page's executor.js mirrors it."""
         self._use()
         frame = self.frame() if frame is None else frame
         for stage in self.plan.frame_stages if stages is None else stages:

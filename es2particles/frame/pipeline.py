@@ -477,6 +477,11 @@ class Renderer:
                                  f"{rendering.kind})")
         rendering.check_settings({n: getattr(settings, n) for n in settings.given()
                                   if n in rendering.settings})
+        if "accumulate" in settings.given() and settings.accumulate > 1:
+            # its samples are steps, and the steps are the simulation's
+            raise ParameterError(f"accumulate {settings.accumulate}: a renderer over a simulation "
+                                 "does not step it, and an accumulated image's samples are steps; "
+                                 "draw it through Pipeline, which steps between the samples")
         check_bloom(settings.bloom)
         present = plan_picture(b, rendering, defaults)
         self.plan = b.finish(present=present, size=b.size, motion=motion)
@@ -484,20 +489,16 @@ class Renderer:
         self.executor = Executor(ctx, self.plan, external=dict(sim.buffers))
         self.final = None
 
-    def draw(self, camera=None, drag=None, clear=True):
+    def draw(self, camera=None, drag=None):
         """Draw the frame seen from ``camera`` (3D), the moving meshes placed by the motion after
-        the simulation's steps, its rest offset moved by ``drag`` (3 floats; None: none);
-        ``clear`` False keeps the density target's sum (accumulation). Returns the presented
-        texture."""
+        the simulation's steps, its rest offset moved by ``drag`` (3 floats; None: none), through
+        the executor's one frame path. Returns the presented texture."""
         if self.executor is None:
             raise Es2ParticlesError("this Renderer was released; make a new one")
         if self.sim.executor is None:
             raise Es2ParticlesError("the Simulation this Renderer draws was released: release "
                                     "the renderer first, or draw before the simulation goes")
-        env = self.executor.frame(camera, drag, self.sim.steps_done)
-        for stage in self.plan.frame_stages:
-            self.executor.run(stage, env, clear=clear or stage.kind != "points")
-        self.final = self.executor.front(self.plan.present)
+        self.final = self.executor.render(self.executor.frame(camera, drag, self.sim.steps_done))
         return self.final
 
     def read(self, name=None):

@@ -1,7 +1,8 @@
-"""Two features a :class:`~es2particles.render.sprites.Sprites` rendering takes, each declared on
-its own with its own options: soft particles (the ARM chapter's: a sprite fades as it nears the
-opaque scene behind it) and a sprite buffer at a lower resolution than the picture (the
-chapter's 640x360 under 1080p).
+"""Soft particles and a sprite buffer: two features a
+:class:`~es2particles.render.sprites.Sprites` rendering takes, each declared on its own with its
+own options. Soft particles are the ARM chapter's: a sprite fades as it nears the opaque scene
+behind it. The buffer draws the sprites at a lower resolution than the picture (the chapter's
+640x360 under 1080p).
 
 Either draws the sprites into a buffer of their own (premultiplied, RGBA16F where the context
 blends into it), laid back over the picture by ``sprites/upsample.frag``: the nearest texel,

@@ -287,8 +287,12 @@ class Wind(Scene):
         at_edge = sum(sum(sim.clamped_writes(q)) for q in ("u", "v"))
         lines = [f"{at_edge} of {faces} faces' wind is at +-{u:g} m/s, the range's edge: faster "
                  "air was clamped on write; raise --max-speed"] if at_edge else []
-        # the faces' line stands for the air (its centres follow from the faces)
-        return lines + clamp_report(sim, skip=("u", "v", "wind"),
+        # the faces' line stands for the air: its centres follow from the faces, and so do
+        # the other quantities on the face grids (MacCormack's ahead and behind, viscosity's
+        # held faces), interpolated from them or copied
+        faces = [q for q, b in sim.buffers.items() if b.quantity.domain is not None
+                 and b.quantity.domain.name in ("xfaces", "yfaces")]
+        return lines + clamp_report(sim, skip=(*faces, "wind"),
                                     hints={"velocity": "raise --max-speed"})
 
     def push(self):

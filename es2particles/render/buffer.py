@@ -39,14 +39,6 @@ class SoftParticles:
             raise ParameterError(f"scene depth must be one of {', '.join(SCENE_DEPTHS)}, got "
                                  f"{self.scene_depth!r}")
 
-    def depth_texture(self, caps, meshes):
-        """Whether the sprites read the scene's distance from the picture's depth texture (else
-        from the packed pre-pass, or nothing where there are no meshes)."""
-        if self.scene_depth == "texture" and not caps.depth_texture:
-            raise CapabilityError("scene depth 'texture': this context cannot sample a depth "
-                                  "buffer (no OES_depth_texture); use packed (or auto)")
-        return bool(meshes) and (self.scene_depth == "texture" or (
-            self.scene_depth == "auto" and caps.depth_texture))
 
 
 @dataclass(frozen=True)
@@ -116,6 +108,17 @@ class BufferParams(Params):
 
 
 # --- planning --------------------------------------------------------------------------------
+
+def scene_depth_texture(caps, meshes, scene_depth):
+    """Whether sprites in a buffer read the scene's distance from the picture's depth texture
+    (else from the packed pre-pass, or nothing where there are no ``meshes``), by
+    ``scene_depth`` (one of :data:`SCENE_DEPTHS`) on a context of ``caps``."""
+    if scene_depth == "texture" and not caps.depth_texture:
+        raise CapabilityError("scene depth 'texture': this context cannot sample a depth "
+                              "buffer (no OES_depth_texture); use packed (or auto)")
+    return bool(meshes) and (scene_depth == "texture" or (
+        scene_depth == "auto" and caps.depth_texture))
+
 
 def plan_depth_prepass(b, meshes, size):
     """The opaque scene's distance packed into an RGBA8 target (for a context that cannot

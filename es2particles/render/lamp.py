@@ -84,10 +84,7 @@ class Lamp:
     def plan_scene(self, b, sprites, draw):
         """Draw the opaque scene into the picture lit by the lamp (:func:`plan_lamp`), for the
         sprites' ``draw`` (a :class:`~es2particles.render.sprites.SpriteDraw`)."""
-        per_focal = draw.pixel_size / np.sqrt(sprites.attenuation[2])
-        light_focal = self.camera().focal_pixels(self.size)
-        plan_lamp(b, sprites, ("light_size", per_focal, light_focal, float(sprites.size_spread),
-                               b.size[1]))
+        plan_lamp(b, sprites, sprites.light_size(b, draw, self.camera().focal_pixels(self.size)))
 
 
 def plan_lamp(b, sprites, light_size):

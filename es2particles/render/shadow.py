@@ -102,13 +102,11 @@ class OpacityShadow:
     def attach(self, b, sprites, draw):
         """Plan the map before the sprites' ``draw`` (a
         :class:`~es2particles.render.sprites.SpriteDraw`) and shadow them by it."""
-        per_focal = draw.pixel_size / np.sqrt(sprites.attenuation[2])
-        uniforms, light_focal = plan_shadow(b, sprites, per_focal)
+        uniforms, light_size = plan_shadow(b, sprites, draw)
         draw.defines["SHADOWED"] = None
         draw.inputs.update(u_shadow_map=Ref("shadow map"), u_shadow_sprite=Ref("sprite"))
         draw.uniforms.update(uniforms)
-        draw.frame["u_light_size"] = ("light_size", per_focal, light_focal,
-                                      float(sprites.size_spread), b.size[1])
+        draw.frame["u_light_size"] = light_size
 
 
 def choose_format(caps, fmt):
@@ -163,16 +161,16 @@ def map_uniforms(settings, fmt, opacity):
             "u_shadow_opacity": float(opacity * unit)}
 
 
-def plan_shadow(b, sprites, per_focal):
+def plan_shadow(b, sprites, draw):
     """Add the opacity shadow map of ``sprites.shadow`` (a :class:`~es2particles.render.sprites.
-    Sprites`'s) to plan builder ``b``: its target and the pass that draws every particle into
-    it, seen from the light as a sprite of its world size (the image's sprites' size
-    ``per_focal`` pixels at distance 1 over the camera's focal length), adding its opacity to
-    the channel of its layer. Returns (the uniforms of ``lib/shadow.glsl`` for any program that
-    includes it, the light's focal length in pixels)."""
-    settings, growth, size_spread = sprites.shadow, sprites.growth, sprites.size_spread
+    Sprites`'s, drawn by ``draw``) to plan builder ``b``: its target and the pass that draws
+    every particle into it, seen from the light as a sprite of its world size
+    (:meth:`~es2particles.render.sprites.Sprites.light_size`), adding its opacity to the channel
+    of its layer. Returns (the uniforms of ``lib/shadow.glsl`` for any program that includes it,
+    the frame value of a sprite's size in the map)."""
+    settings, growth = sprites.shadow, sprites.growth
     fmt, note = choose_format(b.caps, settings.format)
-    focal = settings.camera().focal_pixels(settings.size)
+    light_size = sprites.light_size(b, draw, settings.camera().focal_pixels(settings.size))
     uniforms = map_uniforms(settings, fmt, sprites.opacity)
     b.resource(Resource("shadow map", "target", (settings.size, settings.size), fmt,
                         what=f"opacity shadow map: {LAYERS} layers of {settings.layer_depth():.3g} "
@@ -192,7 +190,6 @@ def plan_shadow(b, sprites, per_focal):
         target=Ref("shadow map"), vertices=b.particle_texels(), primitive="points",
         count=b.layout.count, state=DrawState(blend="add", point_size=True, sprites=True),
         uniforms=own, generated=generated_values(interface, b.layout),
-        frame_uniforms={"u_light_size": ("light_size", per_focal, focal, float(size_spread),
-                                         b.size[1])},
+        frame_uniforms={"u_light_size": light_size},
         clear=(0.0, 0.0, 0.0, 0.0), what="each particle adds its opacity to its layer"))
-    return uniforms, focal
+    return uniforms, light_size

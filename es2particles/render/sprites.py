@@ -25,7 +25,8 @@ from ..frame.settings import setting
 from ..gl.bindings import generated_values, stage_interface
 from ..gl.device import DrawState
 from ..params import param
-from .buffer import BufferParams, SoftParams, SoftParticles, SpriteBuffer, plan_buffered
+from .buffer import (BufferParams, SoftParams, SoftParticles, SpriteBuffer, plan_buffered,
+                     scene_depth_texture)
 from .lamp import Lamp
 from .meshes import plan_meshes
 from .points import vertex_fetch
@@ -399,8 +400,10 @@ class Sprites(Rendering):
             self.shadow.attach(b, self, draw)
         else:
             b.left_out.append("shadow map (switched off)")
-        depth_texture = buffer is not None and (
-            self.soft or SoftParticles(0.0)).depth_texture(caps, self.meshes)
+        # where a buffer's sprites read the scene's distance (a buffer without soft sprites:
+        # the default rule, the texture where the context has one)
+        depth_texture = buffer is not None and scene_depth_texture(
+            caps, self.meshes, self.soft.scene_depth if self.soft else "auto")
         b.resource(Resource("image", "target", b.size, "rgba8",
                             depth="texture" if depth_texture else True, linear=True,
                             what="the picture, with its depth" + (
@@ -425,6 +428,14 @@ class Sprites(Rendering):
                            self.lamp.position if self.lamp is not None else self.light,
                            self.meshes,
                            lambda target, clear: self._plan_occluders(b, occluder, target, clear))
+
+    def light_size(self, b, draw, light_focal):
+        """The frame value of a sprite's size seen from a light of focal length
+        ``light_focal`` pixels (a shadow map's, the lamp's): its world size, the picture's
+        ``draw.pixel_size`` at distance 1 over the camera's focal length (attenuation (0, 0, c),
+        which both shadows need), in the light's pixels."""
+        per_focal = draw.pixel_size / np.sqrt(self.attenuation[2])
+        return ("light_size", per_focal, light_focal, float(self.size_spread), b.size[1])
 
     def _check_fetch(self, b, fetch, quantities):
         """Refuse the features that read textures in the sprites' vertex shader (or draw the

@@ -50,6 +50,14 @@ def blocked_faces(solid, closed):
     return out
 
 
+def carried_faces(sim):
+    """The quantities of ``sim`` on the air's face grids besides the velocity itself
+    (MacCormack's ahead and behind, viscosity's held faces): each interpolated from the faces
+    or copied from them, so at its range's edge only where they are, and said with them."""
+    return [q for q, b in sim.buffers.items() if q not in COMPONENTS
+            and b.quantity.domain is not None and b.quantity.domain.name in FACE_GRIDS]
+
+
 def texels(mask):
     """A boolean image (rows from the bottom) as an RGBA8 texture, r = 255 where set."""
     mask = np.asarray(mask, bool)

@@ -27,7 +27,7 @@ from ..frame.settings import Defaults
 from ..params import param
 from ..render.flame import MAX_STEPS, Flame as FlameRendering, flame_light
 from ..render.shafts import ShaftParams
-from .air import ADVECTIONS, WALL_KINDS, Air, Fire
+from .air import ADVECTIONS, WALL_KINDS, Air, Fire, carried_faces
 from .base import Scene, clamp_report
 from .emitter import CAMERAS, camera_of, eye, target
 
@@ -192,8 +192,7 @@ class Flame(Scene):
         if self.air and self.params.advection == "maccormack":
             hint = ("raise --max-speed, or lower --vorticity (under --advection maccormack, "
                     "which damps less, confinement grows without bound sooner: try 0)")
-        between = [f"{c}_{part}" for c in "uvw" for part in ("ahead", "behind")]
-        return clamp_report(sim, skip=between,
+        return clamp_report(sim, skip=carried_faces(sim),
                             hints={c: hint for c in "uvw"} if self.air else None)
 
     def camera_at(self, frame, frames):

@@ -25,7 +25,7 @@ from ..frame.graph import PassGraph
 from ..frame.settings import Defaults
 from ..params import Params, param
 from ..twins.life import life_range, longest_life
-from .air import ADVECTIONS, WALL_KINDS, Air
+from .air import ADVECTIONS, WALL_KINDS, Air, carried_faces
 from .base import Push, Scene, clamp_report
 
 SIDES = ("left", "right", "bottom", "top")
@@ -287,12 +287,9 @@ class Wind(Scene):
         at_edge = sum(sum(sim.clamped_writes(q)) for q in ("u", "v"))
         lines = [f"{at_edge} of {faces} faces' wind is at +-{u:g} m/s, the range's edge: faster "
                  "air was clamped on write; raise --max-speed"] if at_edge else []
-        # the faces' line stands for the air: its centres follow from the faces, and so do
-        # the other quantities on the face grids (MacCormack's ahead and behind, viscosity's
-        # held faces), interpolated from them or copied
-        faces = [q for q, b in sim.buffers.items() if b.quantity.domain is not None
-                 and b.quantity.domain.name in ("xfaces", "yfaces")]
-        return lines + clamp_report(sim, skip=(*faces, "wind"),
+        # the faces' line stands for the air: its centres and the faces' carried quantities
+        # follow from the faces
+        return lines + clamp_report(sim, skip=("u", "v", "wind", *carried_faces(sim)),
                                     hints={"velocity": "raise --max-speed"})
 
     def push(self):

@@ -270,7 +270,7 @@ void main()
 #endif
 #if defined(CORRECT) && !defined(CARRY)
     vecd x = grid_point();
-    write(blocked(c) ? 0.0 : corrected(c, x));
+    write(HELD(c) ? OWN_TYPE(0.0) : corrected(c, x));
 #endif
 #if defined(CURL) && DIMENSIONS == 3
     // at air cell centres, from the wind there: (dw/dy - dv/dz, du/dz - dw/dx, dv/dx - du/dy)
@@ -376,9 +376,10 @@ void main()
 #endif
 #ifdef CARRY
     // the fire (density, temperature) arriving here along the flow, fire(x - dt u(x)),
-    // trilinear (or MacCormack's correction of it), each part keeping u_keep of itself a step (it fades and cools); fed at the
-    // burner, a flat ball at u_burner.xyz of radius u_burner.w (half as high), where each rises
-    // to u_feed flickering by noise, up to 0.7 of it, that drifts with time (its puffs).
+    // trilinear (or MacCormack's correction of it), each part keeping u_keep of itself a step
+    // (it fades and cools); fed at the burner, a flat ball at u_burner.xyz of radius u_burner.w
+    // (half as high), where each rises to u_feed flickering by noise, up to 0.7 of it, that
+    // drifts with time (its puffs).
     vecd x = grid_point();
 #ifdef CORRECT
     vec2 fire = corrected(c, x) * u_keep;
